@@ -1,0 +1,72 @@
+// One data or event connection: from an output port to an input port, with the reading
+// side's policy, its lock-free buffer (pull mode) and its instrumentation.
+//
+// deliver() runs on the writer's thread (the forwarding path): no allocation, no lock,
+// no logging. take() runs on the reader's thread. Counters are relaxed atomics read by the
+// stats thread; histograms are lock-free.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "polyport/histogram.hpp"
+#include "polyport/port.hpp"
+
+namespace polyport {
+
+struct ConnectionCounters {
+  std::atomic<std::uint64_t> received{0};          // samples that entered the connection
+  std::atomic<std::uint64_t> delivered{0};         // stored for the reader, or taken by a sink
+  std::atomic<std::uint64_t> read{0};              // new samples the reader took (pull mode)
+  std::atomic<std::uint64_t> overwritten{0};       // `data`: an unread value was replaced
+  std::atomic<std::uint64_t> dropped_queue_full{0};   // `buffer` full: the new sample
+  std::atomic<std::uint64_t> dropped_oldest{0};       // `circular` full: the oldest sample
+  std::atomic<std::uint64_t> dropped_too_large{0};    // larger than the connection's slots
+  std::atomic<std::uint64_t> dropped_sink_error{0};   // the sink (adaptor) refused it
+
+  std::uint64_t dropped() const noexcept {
+    return dropped_queue_full.load(std::memory_order_relaxed) +
+           dropped_oldest.load(std::memory_order_relaxed) +
+           dropped_too_large.load(std::memory_order_relaxed) +
+           dropped_sink_error.load(std::memory_order_relaxed);
+  }
+};
+
+class Connection {
+ public:
+  // Pull mode when target has no sink: a buffer of the given policy and depth, with slots
+  // of target.max_sample_bytes(). Push mode (target has a sink): no buffer.
+  Connection(DataOutPort& source, DataInPort& target, QueuePolicy policy, std::uint32_t depth);
+  Connection(const Connection&) = delete;
+  Connection& operator=(const Connection&) = delete;
+
+  void deliver(const std::byte* data, const SampleMeta& meta) noexcept;  // writer thread
+  PopResult take(std::byte* dst, std::uint32_t capacity, SampleMeta& meta) noexcept;  // reader
+
+  DataOutPort& source() const noexcept { return source_; }
+  DataInPort& target() const noexcept { return target_; }
+  QueuePolicy policy() const noexcept { return policy_; }
+  std::uint32_t depth() const noexcept { return depth_; }
+  bool push_mode() const noexcept { return buffer_ == nullptr; }
+  std::string name() const;  // "A.out -> B.in"
+
+  const ConnectionCounters& counters() const noexcept { return counters_; }
+  // t_out - t_in: entry until stored for the reader (pull) or handled by the sink (push).
+  const LatencyHistogram& latency() const noexcept { return latency_; }
+  // t_read - t_in: entry until the reader took the sample (pull mode only).
+  const LatencyHistogram& age() const noexcept { return age_; }
+
+ private:
+  DataOutPort& source_;
+  DataInPort& target_;
+  QueuePolicy policy_;
+  std::uint32_t depth_;
+  std::unique_ptr<SampleBuffer> buffer_;
+  ConnectionCounters counters_;
+  LatencyHistogram latency_;
+  LatencyHistogram age_;
+};
+
+}  // namespace polyport

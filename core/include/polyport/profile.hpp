@@ -1,0 +1,131 @@
+// Application and component profiles: the OPRoS `application_profile` / `component_profile`
+// XML shapes, extended with what polyport needs (model, policy, depth, type files). The
+// loader reads them into these plain structs, reporting every problem as
+// `file:line:col: element path: message`; nothing runs when any problem was found.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "polyport/diagnostics.hpp"
+
+namespace polyport {
+
+class TypeRegistry;
+
+enum class PortKind : std::uint8_t { data, service, event };
+enum class PortDirection : std::uint8_t { input, output, provided, required };
+enum class QueuePolicy : std::uint8_t { data, buffer, circular };
+enum class ExecutionType : std::uint8_t { periodic, periodic_exclusive, aperiodic, passive };
+enum class SchedPolicy : std::uint8_t { other, fifo, rr };
+enum class InitialState : std::uint8_t { inactive, active };
+
+struct OperationSpec {
+  std::string name;
+  std::string request_type;  // empty: no request payload
+  std::string reply_type;    // empty: no reply payload
+  bool oneway = false;       // `send`: no reply at all
+  SourceLocation where;
+};
+
+struct PortSpec {
+  std::string name;
+  PortKind kind = PortKind::data;
+  PortDirection direction = PortDirection::input;
+  std::string data_type;               // data and event ports (event: may be empty)
+  std::string service_type;            // service ports: the interface name both sides share
+  std::vector<OperationSpec> operations;  // service ports
+  std::optional<QueuePolicy> policy;   // input data/event ports: reading-side policy
+  std::optional<std::uint32_t> depth;  // buffer/circular depth
+  SourceLocation where;
+};
+
+struct PropertySpec {
+  std::string name;
+  std::string type;   // as written ("double", "int", "string", "bool"); may be empty
+  std::string value;
+  SourceLocation where;
+};
+
+struct ExecutionSemantics {
+  ExecutionType type = ExecutionType::periodic;
+  double period_ms = 10.0;          // OPRoS: milliseconds
+  int priority = 0;                 // SCHED_FIFO / SCHED_RR priority when policy asks for it
+  SchedPolicy policy = SchedPolicy::other;
+  std::optional<int> cpu;           // pin the execution context's thread to this CPU
+  SourceLocation where;
+};
+
+struct ComponentProfile {
+  std::filesystem::path file;       // absolute path of the component profile
+  std::string name;                 // the component type's name
+  std::string model = "inproc";     // which model runs it
+  std::string library;              // inproc: the shared library as written
+  std::filesystem::path library_path;  // inproc: resolved path (empty if not found)
+  std::string class_name;           // inproc: component class in the library (default: name)
+  ExecutionSemantics execution;
+  InitialState initial_state = InitialState::active;  // OPRoS lifecycle_type start|stop
+  std::vector<PropertySpec> properties;
+  std::vector<PortSpec> ports;
+  std::vector<std::filesystem::path> type_files;
+  SourceLocation where;
+
+  const PortSpec* find_port(std::string_view port_name) const noexcept;
+  const PropertySpec* find_property(std::string_view property_name) const noexcept;
+};
+
+struct Subcomponent {
+  std::string name;                 // instance name, used by port_connections
+  std::filesystem::path reference;  // resolved path of the component profile
+  ComponentProfile profile;
+  SourceLocation where;
+};
+
+struct ConnectionEnd {
+  std::string component;
+  std::string port;
+  SourceLocation where;
+};
+
+struct ConnectionSpec {
+  PortKind kind = PortKind::data;
+  ConnectionEnd source;
+  ConnectionEnd target;
+  std::optional<QueuePolicy> policy;   // overrides the input port's policy
+  std::optional<std::uint32_t> depth;
+  SourceLocation where;
+};
+
+struct ApplicationProfile {
+  std::filesystem::path file;
+  std::string name;
+  std::string description;
+  std::vector<std::filesystem::path> type_files;
+  std::vector<Subcomponent> components;
+  std::vector<ConnectionSpec> connections;
+
+  const Subcomponent* find_component(std::string_view instance_name) const noexcept;
+};
+
+struct LoadOptions {
+  // Where component libraries are looked for, after the component profile's own folder.
+  std::vector<std::filesystem::path> library_path;
+};
+
+// Reads an application profile, every component profile it references and every type file
+// they name (into `types`), then checks the graph: components, ports, kinds, directions and
+// types across each connection, periods, files. Returns the profile when there was no error.
+std::optional<ApplicationProfile> load_application_profile(const std::filesystem::path& file,
+                                                           TypeRegistry& types,
+                                                           const LoadOptions& options,
+                                                           Diagnostics& diagnostics);
+
+std::string_view to_string(PortKind kind) noexcept;
+std::string_view to_string(PortDirection direction) noexcept;
+std::string_view to_string(QueuePolicy policy) noexcept;
+std::string_view to_string(ExecutionType type) noexcept;
+
+}  // namespace polyport

@@ -1,0 +1,180 @@
+// Service ports: a required port calls operations of the provided port it is connected to.
+//
+// A call lives in a PendingCall slot taken from the caller's fixed pool (the cap on calls in
+// flight), so calling allocates nothing. The provided port hands the slot to its
+// ServiceTarget: in-process handlers run it on the caller's thread or queue it for the
+// provider's own execution context; a foreign model's adaptor forwards it to its peer and
+// completes it from that model's receive thread. The caller waits for completion with a
+// timeout (a blocking wait is what a synchronous call is); a slot abandoned by a timed-out
+// caller is returned to the pool when the provider completes it.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "polyport/clock.hpp"
+#include "polyport/histogram.hpp"
+#include "polyport/port.hpp"
+#include "polyport/sample_buffer.hpp"
+
+namespace polyport {
+
+struct OperationInfo {
+  std::string name;
+  const Type* request = nullptr;  // null: no request payload
+  const Type* reply = nullptr;    // null: no reply payload
+  bool oneway = false;
+};
+
+class PendingCall {
+ public:
+  enum class State : std::uint8_t { free, in_flight, done, abandoned };
+
+  std::uint16_t operation = 0;  // index into the provided port's operations
+  const std::byte* request = nullptr;
+  std::uint32_t request_size = 0;
+  std::byte* reply = nullptr;  // the slot's reply buffer
+  std::uint32_t reply_capacity = 0;
+  std::uint32_t reply_size = 0;
+  bool wants_reply = true;
+
+  // Provider side: called exactly once per submitted call.
+  void complete(Status status) noexcept;
+
+ private:
+  friend class RequiredServicePort;
+  std::atomic<State> state_{State::free};
+  Status status_ = Status::ok;
+  std::mutex mutex_;
+  std::condition_variable done_;
+  std::unique_ptr<std::byte[]> request_storage_;
+  std::unique_ptr<std::byte[]> reply_storage_;
+};
+
+class ServiceTarget {
+ public:
+  virtual ~ServiceTarget() = default;
+  virtual void submit(PendingCall& call) noexcept = 0;
+};
+
+class ProvidedServicePort final : public Port, private ServiceTarget {
+ public:
+  enum class Dispatch : std::uint8_t {
+    caller_thread,  // run on the caller's thread, at once
+    own_thread,     // queued; run by the provider's execution context (serve_queued)
+  };
+  // reply_size is in/out: capacity in, bytes written out.
+  using Handler = std::function<Status(const std::byte* request, std::uint32_t request_size,
+                                       std::byte* reply, std::uint32_t& reply_size)>;
+
+  ProvidedServicePort(Component& owner, std::string name, std::string service_type,
+                      std::vector<OperationInfo> operations, std::uint32_t queue_depth = 64);
+
+  const std::string& service_type() const noexcept { return service_type_; }
+  const std::vector<OperationInfo>& operations() const noexcept { return operations_; }
+  int find_operation(std::string_view operation_name) const noexcept;  // -1 if none
+
+  void set_handler(std::uint16_t operation, Handler handler, Dispatch dispatch);
+  // Replaces the in-process dispatch, e.g. by an adaptor forwarding to a foreign model.
+  void set_target(ServiceTarget* target) noexcept { target_ = target; }
+
+  // Called by a connected required port: hands the call to the target (the in-process
+  // handlers unless set_target replaced them).
+  void dispatch(PendingCall& call) noexcept { target_->submit(call); }
+  // Runs queued own_thread calls; the provider's thread. Returns how many ran.
+  std::size_t serve_queued() noexcept;
+  // Completes every queued call with `status` (e.g. not_active when the provider stops).
+  std::size_t cancel_queued(Status status) noexcept;
+  void set_accepting(bool accepting) noexcept { accepting_.store(accepting, std::memory_order_release); }
+
+  std::uint64_t calls() const noexcept { return calls_.load(std::memory_order_relaxed); }
+  std::uint64_t rejected() const noexcept { return rejected_.load(std::memory_order_relaxed); }
+
+ private:
+  struct Entry {
+    Handler handler;
+    Dispatch dispatch = Dispatch::own_thread;
+  };
+  void submit(PendingCall& call) noexcept override;  // in-process dispatch
+  void run(PendingCall& call) noexcept;
+
+  std::string service_type_;
+  std::vector<OperationInfo> operations_;
+  std::vector<Entry> entries_;
+  ServiceTarget* target_;
+  BoundedQueue queue_;
+  std::atomic<bool> accepting_{true};
+  std::atomic<std::uint64_t> calls_{0};
+  std::atomic<std::uint64_t> rejected_{0};
+};
+
+// A handle on an asynchronous call started by request().
+struct CallHandle {
+  PendingCall* call = nullptr;
+  Status status = Status::ok;  // why call is null, when it is
+  MonoTime started;
+  explicit operator bool() const noexcept { return call != nullptr; }
+};
+
+class RequiredServicePort final : public Port {
+ public:
+  RequiredServicePort(Component& owner, std::string name, std::string service_type,
+                      std::vector<OperationInfo> operations, std::uint32_t max_in_flight = 8);
+
+  // Control thread: binds to a provider (operations matched by name); false if an
+  // operation of this port is missing there.
+  bool connect(ProvidedServicePort& provider);
+  void disconnect() noexcept;
+  bool connected() const noexcept { return provider_.load(std::memory_order_acquire) != nullptr; }
+  ProvidedServicePort* provider() const noexcept { return provider_.load(std::memory_order_acquire); }
+
+  // Synchronous call.
+  Status query(std::string_view operation, const void* request, std::uint32_t request_size,
+               void* reply, std::uint32_t reply_capacity, Nanos timeout,
+               std::uint32_t* reply_size = nullptr);
+  // Asynchronous call: request() starts it, receive() waits for its reply (at most timeout).
+  // On a timeout the call stays in flight and receive() may be called again; cancel()
+  // gives up on it.
+  CallHandle request(std::string_view operation, const void* request, std::uint32_t request_size);
+  Status receive(CallHandle& handle, void* reply, std::uint32_t reply_capacity, Nanos timeout,
+                 std::uint32_t* reply_size = nullptr);
+  void cancel(CallHandle& handle) noexcept;
+  // One-way send: no reply, no wait.
+  Status send(std::string_view operation, const void* request, std::uint32_t request_size);
+
+  const std::string& service_type() const noexcept { return service_type_; }
+  const std::vector<OperationInfo>& operations() const noexcept { return operations_; }
+  std::uint32_t max_in_flight() const noexcept { return max_in_flight_; }
+
+  struct Counters {
+    std::atomic<std::uint64_t> calls{0}, ok{0}, timeouts{0}, errors{0}, not_connected{0},
+        too_many_calls{0};
+  };
+  const Counters& counters() const noexcept { return counters_; }
+  const LatencyHistogram& latency() const noexcept { return latency_; }
+
+ private:
+  PendingCall* acquire(std::string_view operation, const void* request,
+                       std::uint32_t request_size, bool wants_reply, Status& status) noexcept;
+  void release(PendingCall& call) noexcept;
+  Status finish(PendingCall& call, void* reply, std::uint32_t reply_capacity,
+                std::uint32_t* reply_size) noexcept;
+
+  std::string service_type_;
+  std::vector<OperationInfo> operations_;
+  std::uint32_t max_in_flight_;
+  std::vector<std::unique_ptr<PendingCall>> pool_;
+  std::vector<int> remote_index_;  // our operation index -> provider's
+  std::atomic<ProvidedServicePort*> provider_{nullptr};
+  Counters counters_;
+  LatencyHistogram latency_;
+};
+
+}  // namespace polyport

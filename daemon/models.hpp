@@ -1,0 +1,10 @@
+#pragma once
+
+#include "polyport/model.hpp"
+
+namespace polyport::daemon {
+
+// Every model this build has, one line each (see models.cpp).
+void register_models(ModelRegistry& registry);
+
+}  // namespace polyport::daemon

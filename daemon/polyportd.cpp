@@ -1,0 +1,304 @@
+// polyportd: loads application profiles, builds the graph, runs it until SIGINT/SIGTERM.
+//
+// Exit codes (also in --help):
+//   0  ran and stopped cleanly, or `check` found no problem
+//   1  a run-time failure (a component did not start, a file could not be written)
+//   2  bad command line
+//   3  a profile has problems (each printed as file:line:col: element path: message)
+#include <signal.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+#include <sstream>
+
+#include "models.hpp"
+#include "polyport/engine.hpp"
+#include "polyport/profile.hpp"
+#include "polyport/types.hpp"
+#include "tracer.hpp"
+
+namespace {
+
+using namespace polyport;
+
+constexpr int kExitOk = 0;
+constexpr int kExitRuntime = 1;
+constexpr int kExitUsage = 2;
+constexpr int kExitProfile = 3;
+
+constexpr const char* kExitCodesHelp =
+    "Exit codes:\n"
+    "  0  ran and stopped cleanly (run), or no problem found (check)\n"
+    "  1  run-time failure: a component did not start, an output file could not be written\n"
+    "  2  bad command line\n"
+    "  3  a profile has problems, each printed as file:line:col: element path: message\n";
+
+struct Options {
+  std::vector<std::string> profiles;
+  std::vector<std::string> library_path;
+  std::string stats_json;
+  double stats_interval_s = 5.0;
+  double duration_s = 0.0;
+  bool quiet = false;
+  bool json = false;
+  std::string log_level = "info";
+  std::vector<std::string> trace_ports;
+  std::string trace_file = "polyport-trace.jsonl";
+  std::uint32_t trace_depth = 4096;
+};
+
+std::vector<std::filesystem::path> library_path(const Options& options) {
+  std::vector<std::filesystem::path> out(options.library_path.begin(), options.library_path.end());
+  if (const char* env = std::getenv("POLYPORT_LIBRARY_PATH")) {
+    std::stringstream list(env);
+    std::string entry;
+    while (std::getline(list, entry, ':')) {
+      if (!entry.empty()) out.emplace_back(entry);
+    }
+  }
+  out.emplace_back(POLYPORT_PLUGIN_DIR);
+  return out;
+}
+
+// Loads every profile and builds the engine; prints every problem. False on any error.
+bool load(const Options& options, Engine& engine, TypeRegistry& types) {
+  Diagnostics diagnostics;
+  LoadOptions load_options{library_path(options)};
+  bool ok = true;
+  for (const std::string& file : options.profiles) {
+    std::optional<ApplicationProfile> profile = load_application_profile(file, types, load_options, diagnostics);
+    if (!profile) {
+      ok = false;
+      continue;
+    }
+    ok = engine.build(*profile, diagnostics) && ok;
+  }
+  diagnostics.print(std::cerr);
+  if (!ok || diagnostics.has_errors()) {
+    std::cerr << diagnostics.error_count() << " problem(s) found\n";
+    return false;
+  }
+  return true;
+}
+
+std::string histogram_text(const nlohmann::json& h) {
+  std::ostringstream out;
+  out << "p50 " << h.value("p50", 0) << " ns, p99 " << h.value("p99", 0) << " ns, max " << h.value("max", 0)
+      << " ns (n=" << h.value("count", 0) << ")";
+  return out.str();
+}
+
+void print_graph(const nlohmann::json& graph, std::ostream& out) {
+  out << "application " << graph.value("application", "") << "\n";
+  out << "components:\n";
+  for (const auto& c : graph["components"]) {
+    out << "  " << c.value("name", "") << "  model=" << c.value("model", "");
+    if (c.contains("execution_context")) out << "  execution_context=" << c["execution_context"].get<std::string>();
+    out << "\n";
+    for (const auto& p : c["ports"]) {
+      out << "    " << p.value("direction", "") << " " << p.value("kind", "") << " " << p.value("name", "");
+      if (p.contains("type")) out << "  type=" << p["type"].get<std::string>();
+      if (p.contains("service_type")) out << "  service=" << p["service_type"].get<std::string>();
+      if (p.contains("policy")) out << "  policy=" << p["policy"].get<std::string>();
+      if (p.contains("depth")) out << "  depth=" << p["depth"];
+      out << "\n";
+    }
+  }
+  out << "connections:\n";
+  for (const auto& c : graph["connections"]) {
+    out << "  " << c.value("kind", "") << "  " << c.value("source", "") << " -> " << c.value("target", "");
+    if (c.contains("type")) out << "  type=" << c["type"].get<std::string>();
+    if (c.contains("policy")) out << "  policy=" << c["policy"].get<std::string>();
+    if (c.contains("depth")) out << "  depth=" << c["depth"];
+    if (c.contains("mode")) out << "  mode=" << c["mode"].get<std::string>();
+    if (c.contains("max_in_flight")) out << "  max_in_flight=" << c["max_in_flight"];
+    out << "\n";
+  }
+  out << "execution contexts:\n";
+  for (const auto& e : graph["execution_contexts"]) {
+    out << "  " << e.value("name", "") << "  period=" << e.value("period_ns", 0) / 1e6 << " ms  members:";
+    for (const auto& m : e["members"]) out << " " << m.get<std::string>();
+    out << "\n";
+  }
+}
+
+int run_check(const Options& options) {
+  TypeRegistry types;
+  ModelRegistry models;
+  daemon::register_models(models);
+  Engine engine(models, types);
+  if (!load(options, engine, types)) return kExitProfile;
+  nlohmann::json graph;
+  engine.describe(graph);
+  if (options.json) {
+    std::cout << graph.dump(2) << "\n";
+  } else {
+    print_graph(graph, std::cout);
+    std::cout << "ok: no problems found\n";
+  }
+  return kExitOk;
+}
+
+void print_final_stats(const nlohmann::json& stats) {
+  spdlog::info("final statistics:");
+  for (const auto& c : stats["components"]) {
+    spdlog::info("  component {} ({}): state {}, {} executions, {} errors", c.value("name", ""), c.value("model", ""),
+                 c.value("state", ""), c.value("executions", 0), c.value("errors", 0));
+  }
+  for (const auto& c : stats["connections"]) {
+    spdlog::info("  {}: received {}, delivered {}, dropped {}; latency {}", c.value("name", ""), c.value("received", 0),
+                 c.value("delivered", 0), c.value("dropped", 0), histogram_text(c["latency_ns"]));
+  }
+  for (const auto& s : stats["services"]) {
+    spdlog::info("  {}: calls {}, ok {}, timeouts {}, errors {}", s.value("name", ""), s.value("calls", 0),
+                 s.value("ok", 0), s.value("timeouts", 0), s.value("errors", 0));
+  }
+  for (const auto& e : stats["execution_contexts"]) {
+    spdlog::info("  execution context {}: {} cycles, {} overruns; wake jitter {}", e.value("name", ""),
+                 e.value("cycles", 0), e.value("overruns", 0), histogram_text(e["wake_jitter_ns"]));
+  }
+}
+
+int run_daemon(const Options& options) {
+  // Signals are taken synchronously by this thread; every other thread inherits the mask.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGHUP);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  TypeRegistry types;
+  ModelRegistry models;
+  daemon::register_models(models);
+  Engine engine(models, types);
+  if (!load(options, engine, types)) {
+    spdlog::error("not running: the profile has problems");
+    return kExitProfile;
+  }
+
+  daemon::Tracer tracer;
+  if (!options.trace_ports.empty()) {
+    if (auto opened = tracer.open(options.trace_file); !opened) {
+      spdlog::error("{}", opened.error().message);
+      return kExitRuntime;
+    }
+    for (const std::string& port : options.trace_ports) {
+      if (auto added = tracer.add(engine, port, options.trace_depth); !added) {
+        spdlog::error("--trace {}: {}", port, added.error().message);
+        return kExitUsage;
+      }
+    }
+    spdlog::info("tracing {} port(s) to {}", options.trace_ports.size(), options.trace_file);
+  }
+
+  std::vector<std::string> warnings;
+  Result<void> started = engine.start(warnings);
+  for (const std::string& warning : warnings) spdlog::warn("{}", warning);
+  if (!started) {
+    spdlog::error("{}", started.error().message);
+    return kExitRuntime;
+  }
+  spdlog::info("running {} (pid {}); SIGINT or SIGTERM stops", options.profiles.front(), getpid());
+
+  using Clock = std::chrono::steady_clock;
+  const auto t_start = Clock::now();
+  auto next_summary = t_start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.stats_interval_s));
+  const bool summaries = !options.quiet && options.stats_interval_s > 0;
+  int stop_signal = 0;
+  while (stop_signal == 0) {
+    // Wake often enough to drain traces; otherwise sleep until the next summary.
+    auto wait = std::chrono::milliseconds(tracer.active() ? 100 : 500);
+    timespec timeout{0, static_cast<long>(std::chrono::nanoseconds(wait).count())};
+    const int signal = sigtimedwait(&signals, nullptr, &timeout);
+    if (signal == SIGINT || signal == SIGTERM) {
+      stop_signal = signal;
+    } else if (signal == SIGHUP) {
+      spdlog::warn("SIGHUP: reloading profiles is not supported yet; the running graph is unchanged");
+    }
+    if (tracer.active()) tracer.drain();
+    const auto now = Clock::now();
+    if (summaries && now >= next_summary) {
+      spdlog::info("{}", engine.summary_line());
+      next_summary += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.stats_interval_s));
+    }
+    if (options.duration_s > 0 && now - t_start >= std::chrono::duration<double>(options.duration_s)) break;
+  }
+  spdlog::info("stopping ({})", stop_signal ? strsignal(stop_signal) : "duration reached");
+  engine.stop();
+  if (tracer.active()) {
+    tracer.drain();
+    if (tracer.lost() > 0) spdlog::warn("trace lost {} sample(s): raise --trace-depth", tracer.lost());
+  }
+
+  nlohmann::json stats;
+  engine.stats(stats);
+  stats["polyport_version"] = POLYPORT_VERSION;
+  stats["profiles"] = options.profiles;
+  stats["run_seconds"] = std::chrono::duration<double>(Clock::now() - t_start).count();
+  if (!options.quiet) print_final_stats(stats);
+  if (!options.stats_json.empty()) {
+    std::ofstream out(options.stats_json);
+    out << stats.dump(2) << "\n";
+    if (!out) {
+      spdlog::error("cannot write statistics to '{}'", options.stats_json);
+      return kExitRuntime;
+    }
+    spdlog::info("statistics written to {}", options.stats_json);
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"polyportd: runs robot components of different middlewares as one application"};
+  app.footer(kExitCodesHelp);
+  app.set_version_flag("--version", std::string("polyportd ") + POLYPORT_VERSION);
+  app.require_subcommand(1);
+  Options options;
+  app.add_option("--log-level", options.log_level, "trace, debug, info, warn, error, off")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}))
+      ->capture_default_str();
+  app.add_option("-L,--library-path", options.library_path,
+                 "extra folder to look for component libraries in (also POLYPORT_LIBRARY_PATH)");
+
+  CLI::App* run = app.add_subcommand("run", "load PROFILE(s) and run until SIGINT or SIGTERM");
+  run->add_option("profiles", options.profiles, "application profile(s)")->required();
+  run->add_option("--stats-json", options.stats_json, "write the final statistics as JSON to FILE");
+  run->add_option("--stats-interval", options.stats_interval_s, "seconds between summary lines on stderr (0: none)")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  run->add_flag("-q,--quiet", options.quiet, "no periodic summary or final statistics on stderr");
+  run->add_option("--duration", options.duration_s, "stop by itself after this many seconds (0: run until signalled)")
+      ->check(CLI::NonNegativeNumber);
+  run->add_option("--trace", options.trace_ports, "trace an output port (Component.port) as JSON lines; repeatable");
+  run->add_option("--trace-file", options.trace_file, "where --trace writes")->capture_default_str();
+  run->add_option("--trace-depth", options.trace_depth, "samples buffered per traced port between drains")
+      ->capture_default_str()->check(CLI::Range(1u, 1u << 20));
+
+  CLI::App* check = app.add_subcommand("check", "validate PROFILE(s) and print the resolved graph");
+  check->add_option("profiles", options.profiles, "application profile(s)")->required();
+  check->add_flag("--json", options.json, "print the resolved graph as JSON");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? kExitOk : kExitUsage;
+  }
+
+  auto logger = spdlog::stderr_color_mt("polyportd");
+  spdlog::set_default_logger(logger);
+  spdlog::set_level(spdlog::level::from_str(options.log_level));
+  spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ %v");
+
+  if (check->parsed()) return run_check(options);
+  return run_daemon(options);
+}

@@ -1,0 +1,51 @@
+#include "inproc_interceptor.hpp"
+
+#include <nlohmann/json.hpp>
+
+namespace polyport::inproc {
+
+InprocInterceptor::InprocInterceptor(std::unique_ptr<ComponentBase> instance, InitialState initial_state,
+                                     std::vector<ProvidedServicePort*> provided)
+    : instance_(std::move(instance)), lifecycle_(*instance_), initial_state_(initial_state), provided_(std::move(provided)) {}
+
+InprocInterceptor::~InprocInterceptor() { stop(); }
+
+void InprocInterceptor::attach(ExecutionContext& context) {
+  context_ = &context;
+  context.add(lifecycle_, provided_);
+}
+
+ReturnCode InprocInterceptor::command(LifecycleCommand command) {
+  return context_ ? context_->command(lifecycle_, command) : lifecycle_.apply(command);
+}
+
+Result<void> InprocInterceptor::start() {
+  for (ProvidedServicePort* port : provided_) port->set_accepting(true);
+  ReturnCode code = command(LifecycleCommand::initialize);
+  if (code != ReturnCode::ok) return make_error("onInitialize returned " + std::string(to_string(code)));
+  if (initial_state_ == InitialState::active) {
+    code = command(LifecycleCommand::activate);
+    if (code != ReturnCode::ok) return make_error("onActivated returned " + std::string(to_string(code)));
+  }
+  return {};
+}
+
+void InprocInterceptor::stop() noexcept {
+  for (ProvidedServicePort* port : provided_) {
+    port->set_accepting(false);
+  }
+  if (lifecycle_.state() == LifecycleState::active) command(LifecycleCommand::deactivate);
+  if (lifecycle_.state() != LifecycleState::finalized) command(LifecycleCommand::finalize);
+  for (ProvidedServicePort* port : provided_) port->cancel_queued(Status::not_active);
+}
+
+InterceptorStatus InprocInterceptor::status() const {
+  return InterceptorStatus{std::string(to_string(lifecycle_.state())), lifecycle_.executions(), lifecycle_.errors()};
+}
+
+void InprocInterceptor::describe(nlohmann::json& out) const {
+  out["execution_context"] = context_ ? nlohmann::json(context_->settings().name) : nlohmann::json("passive");
+  if (context_) out["period_ns"] = context_->settings().period.count;
+}
+
+}  // namespace polyport::inproc

@@ -1,0 +1,37 @@
+// The native side of an in-process proxy: the component instance, its lifecycle, and the
+// execution context that runs it (none for a passive component).
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "polyport/component_api.hpp"
+#include "polyport/execution_context.hpp"
+#include "polyport/model.hpp"
+
+namespace polyport::inproc {
+
+class InprocInterceptor final : public Interceptor {
+ public:
+  InprocInterceptor(std::unique_ptr<ComponentBase> instance, InitialState initial_state,
+                    std::vector<ProvidedServicePort*> provided);
+  ~InprocInterceptor() override;
+
+  void attach(ExecutionContext& context);  // before start
+  Lifecycle& lifecycle() noexcept { return lifecycle_; }
+
+  Result<void> start() override;
+  void stop() noexcept override;
+  ReturnCode command(LifecycleCommand command) override;
+  InterceptorStatus status() const override;
+  void describe(nlohmann::json& out) const override;
+
+ private:
+  std::unique_ptr<ComponentBase> instance_;
+  Lifecycle lifecycle_;
+  InitialState initial_state_;
+  std::vector<ProvidedServicePort*> provided_;
+  ExecutionContext* context_ = nullptr;
+};
+
+}  // namespace polyport::inproc

@@ -1,0 +1,78 @@
+#include "inproc_model.hpp"
+
+#include "inproc_adaptor.hpp"
+#include "inproc_interceptor.hpp"
+#include "plugin_library.hpp"
+
+namespace polyport::inproc {
+
+namespace {
+
+std::string join(const std::vector<std::string>& items) {
+  std::string out;
+  for (const auto& item : items) out += (out.empty() ? "" : ", ") + item;
+  return out;
+}
+
+ExecutionSettings settings_for(const Subcomponent& sub) {
+  const ExecutionSemantics& e = sub.profile.execution;
+  ExecutionSettings settings;
+  settings.period = Nanos{static_cast<std::int64_t>(e.period_ms * 1e6)};
+  settings.policy = e.policy;
+  settings.priority = e.priority;
+  settings.cpu = e.cpu;
+  settings.name = e.type == ExecutionType::periodic_exclusive
+                      ? sub.name
+                      : "ec-" + std::to_string(static_cast<long long>(e.period_ms * 1000)) + "us";
+  return settings;
+}
+
+}  // namespace
+
+std::optional<Proxy> InprocModel::create_proxy(const Subcomponent& sub, ModelContext& context,
+                                               Diagnostics& diagnostics) {
+  const ComponentProfile& profile = sub.profile;
+  const std::string library_path = "/component_profile/execution_environment/library_name";
+  if (profile.library_path.empty()) {
+    diagnostics.error(profile.where, library_path, "component library '" + profile.library + "' not found");
+    return std::nullopt;
+  }
+  Result<const PluginLibrary*> library = PluginLibrary::open(profile.library_path);
+  if (!library) {
+    diagnostics.error(profile.where, library_path, library.error().message);
+    return std::nullopt;
+  }
+  const ComponentFactory* factory = library.value()->find(profile.class_name);
+  if (!factory) {
+    diagnostics.error(profile.where, "/component_profile/execution_environment/class_name",
+                      "'" + profile.library_path.string() + "' has no component class '" + profile.class_name +
+                          "' (it has: " + join(library.value()->class_names()) + ")");
+    return std::nullopt;
+  }
+  if (profile.execution.type == ExecutionType::aperiodic) {
+    diagnostics.error(profile.execution.where, "/component_profile/execution_semantics/type",
+                      "aperiodic (event-driven) execution is not supported yet; use periodic or passive");
+    return std::nullopt;
+  }
+
+  std::unique_ptr<ComponentBase> instance = factory->create();
+  std::map<std::string, std::string, std::less<>> properties;
+  for (const PropertySpec& property : profile.properties) properties[property.name] = property.value;
+  const bool passive = profile.execution.type == ExecutionType::passive;
+  instance->set_instance(sub.name, std::move(properties), passive ? 0.0 : profile.execution.period_ms / 1000.0);
+
+  std::unique_ptr<InprocAdaptor> adaptor = InprocAdaptor::create(sub, context.types, *instance, passive, diagnostics);
+  if (!adaptor) return std::nullopt;
+  auto interceptor =
+      std::make_unique<InprocInterceptor>(std::move(instance), profile.initial_state, adaptor->provided_ports());
+  if (!passive) {
+    const ExecutionSettings settings = settings_for(sub);
+    ExecutionContext& ec = profile.execution.type == ExecutionType::periodic_exclusive
+                               ? context.executors.exclusive(settings)
+                               : context.executors.shared(settings);
+    interceptor->attach(ec);
+  }
+  return Proxy{std::move(adaptor), std::move(interceptor)};
+}
+
+}  // namespace polyport::inproc

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs everything polyport needs to build and test, from Debian 12 packages only.
+# Safe to run again: apt-get skips what is installed already.
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config   # toolchain (g++ 12, CMake 3.25)
+  libeigen3-dev          # fixed-size linear algebra for control components and mappings
+  libpugixml-dev         # XML profiles, with byte offsets for file:line:col diagnostics
+  libspdlog-dev          # the daemon's logging (never on the forwarding path)
+  nlohmann-json3-dev     # statistics, traces and `check --json`
+  libcli11-dev           # the daemon's command line
+  libgtest-dev libgmock-dev  # tests
+  libbenchmark-dev       # micro-benchmarks (built with -DPOLYPORT_BUILD_BENCHMARKS=ON)
+  libxml2-utils          # xmllint: shipped profiles are validated against config/polyport.xsd
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} packages present"
+  exit 0
+fi
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+echo "setup: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,194 @@
+// The shared lifecycle and the periodic execution context.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "polyport/component_api.hpp"
+#include "polyport/execution_context.hpp"
+
+namespace polyport {
+namespace {
+
+class Recorder final : public ComponentBase {
+ public:
+  ReturnCode onInitialize() override { return log("initialize"); }
+  ReturnCode onActivated() override { return log("activated"); }
+  ReturnCode onExecute() override {
+    execute_thread = std::this_thread::get_id();
+    if (throw_in_execute) throw std::runtime_error("boom");
+    return log("execute", fail_execute ? ReturnCode::error : ReturnCode::ok);
+  }
+  void onStateUpdate() override { log("update"); }
+  ReturnCode onDeactivated() override { return log("deactivated"); }
+  ReturnCode onError() override { return log("error"); }
+  ReturnCode onReset() override { return log("reset", fail_reset ? ReturnCode::error : ReturnCode::ok); }
+  ReturnCode onFinalize() override { return log("finalize"); }
+
+  ReturnCode log(const char* hook, ReturnCode code = ReturnCode::ok) {
+    hooks.emplace_back(hook);
+    return code;
+  }
+  std::vector<std::string> hooks;
+  bool fail_execute = false;
+  bool throw_in_execute = false;
+  bool fail_reset = false;
+  std::thread::id execute_thread;
+};
+
+using Hooks = std::vector<std::string>;
+
+TEST(Lifecycle, NormalPathRunsTheHooksInOrder) {
+  Recorder c;
+  Lifecycle l(c);
+  EXPECT_EQ(l.state(), LifecycleState::created);
+  EXPECT_EQ(l.apply(LifecycleCommand::initialize), ReturnCode::ok);
+  EXPECT_EQ(l.state(), LifecycleState::inactive);
+  l.execute();  // inactive: nothing runs
+  EXPECT_EQ(l.apply(LifecycleCommand::activate), ReturnCode::ok);
+  EXPECT_EQ(l.state(), LifecycleState::active);
+  l.execute();
+  EXPECT_EQ(l.apply(LifecycleCommand::deactivate), ReturnCode::ok);
+  EXPECT_EQ(l.apply(LifecycleCommand::finalize), ReturnCode::ok);
+  EXPECT_EQ(l.state(), LifecycleState::finalized);
+  EXPECT_EQ(c.hooks, (Hooks{"initialize", "activated", "execute", "update", "deactivated", "finalize"}));
+  EXPECT_EQ(l.executions(), 1u);
+}
+
+TEST(Lifecycle, CommandsOutOfOrderAreRefused) {
+  Recorder c;
+  Lifecycle l(c);
+  EXPECT_EQ(l.apply(LifecycleCommand::activate), ReturnCode::precondition_not_met);
+  EXPECT_EQ(l.apply(LifecycleCommand::reset), ReturnCode::precondition_not_met);
+  l.apply(LifecycleCommand::initialize);
+  l.apply(LifecycleCommand::activate);
+  EXPECT_EQ(l.apply(LifecycleCommand::initialize), ReturnCode::precondition_not_met);
+  EXPECT_EQ(l.apply(LifecycleCommand::finalize), ReturnCode::precondition_not_met);  // deactivate first
+  EXPECT_EQ(l.state(), LifecycleState::active);
+}
+
+TEST(Lifecycle, FailedExecuteEntersErrorAndResetReturnsToInactive) {
+  Recorder c;
+  Lifecycle l(c);
+  l.apply(LifecycleCommand::initialize);
+  l.apply(LifecycleCommand::activate);
+  c.fail_execute = true;
+  l.execute();
+  EXPECT_EQ(l.state(), LifecycleState::error);
+  EXPECT_EQ(l.errors(), 1u);
+  c.hooks.clear();
+  l.execute();  // in error: onError each cycle, no onExecute
+  l.execute();
+  EXPECT_EQ(c.hooks, (Hooks{"error", "error"}));
+
+  c.fail_reset = true;  // RTC: a failing onReset leaves the component in error
+  EXPECT_EQ(l.apply(LifecycleCommand::reset), ReturnCode::error);
+  EXPECT_EQ(l.state(), LifecycleState::error);
+  c.fail_reset = false;
+  EXPECT_EQ(l.apply(LifecycleCommand::reset), ReturnCode::ok);
+  EXPECT_EQ(l.state(), LifecycleState::inactive);
+}
+
+TEST(Lifecycle, ExceptionInExecuteIsAnErrorAndRecoverRestartsIt) {
+  Recorder c;
+  Lifecycle l(c);
+  l.apply(LifecycleCommand::initialize);
+  l.apply(LifecycleCommand::activate);
+  c.throw_in_execute = true;
+  l.execute();
+  EXPECT_EQ(l.state(), LifecycleState::error);
+  c.throw_in_execute = false;
+  c.hooks.clear();
+  EXPECT_EQ(l.apply(LifecycleCommand::recover), ReturnCode::ok);  // Orocos recover()
+  EXPECT_EQ(l.state(), LifecycleState::active);
+  EXPECT_EQ(c.hooks, (Hooks{"reset", "activated"}));
+}
+
+TEST(Lifecycle, NamesOfAllThreeModelsAreAccepted) {
+  EXPECT_EQ(parse_lifecycle_state("Running"), LifecycleState::active);
+  EXPECT_EQ(parse_lifecycle_state("ACTIVE_STATE"), LifecycleState::active);
+  EXPECT_EQ(parse_lifecycle_state("Stopped"), LifecycleState::inactive);
+  EXPECT_EQ(parse_lifecycle_state("READY"), LifecycleState::inactive);
+  EXPECT_EQ(parse_lifecycle_state("PreOperational"), LifecycleState::created);
+  EXPECT_EQ(parse_lifecycle_state("RunTimeError"), LifecycleState::error);
+  EXPECT_EQ(parse_lifecycle_state("sideways"), std::nullopt);
+  EXPECT_EQ(parse_lifecycle_command("startHook"), LifecycleCommand::activate);
+  EXPECT_EQ(parse_lifecycle_command("onStart"), LifecycleCommand::activate);
+  EXPECT_EQ(parse_lifecycle_command("configureHook"), LifecycleCommand::initialize);
+  EXPECT_EQ(parse_lifecycle_command("onStop"), LifecycleCommand::deactivate);
+  EXPECT_EQ(parse_lifecycle_command("cleanupHook"), LifecycleCommand::finalize);
+  EXPECT_EQ(parse_lifecycle_command("onDestroy"), LifecycleCommand::finalize);
+  EXPECT_EQ(parse_lifecycle_command("onRecover"), LifecycleCommand::recover);
+  EXPECT_EQ(parse_lifecycle_command("jump"), std::nullopt);
+}
+
+// Waits for a condition with a deadline; the test fails if it never becomes true.
+template <class F>
+bool eventually(F&& condition, std::chrono::milliseconds limit = std::chrono::milliseconds(5000)) {
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  while (!condition()) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return true;
+}
+
+TEST(ExecutionContext, RunsHooksOnItsOwnThreadAtItsPeriod) {
+  Recorder c;
+  Lifecycle l(c);
+  ExecutionContext ec(ExecutionSettings{"test-ec", Nanos{1'000'000}, SchedPolicy::other, 0, std::nullopt});
+  ec.add(l);
+  std::vector<std::string> warnings;
+  ec.start(warnings);
+  EXPECT_TRUE(warnings.empty());
+  EXPECT_EQ(ec.command(l, LifecycleCommand::initialize), ReturnCode::ok);
+  EXPECT_EQ(ec.command(l, LifecycleCommand::activate), ReturnCode::ok);
+  ASSERT_TRUE(eventually([&] { return l.executions() >= 20; }));
+  EXPECT_NE(c.execute_thread, std::this_thread::get_id());
+
+  EXPECT_EQ(ec.command(l, LifecycleCommand::deactivate), ReturnCode::ok);
+  const std::uint64_t executions = l.executions();
+  const std::uint64_t cycles = ec.cycles();
+  ASSERT_TRUE(eventually([&] { return ec.cycles() >= cycles + 5; }));
+  EXPECT_EQ(l.executions(), executions);  // inactive: the context ticks, the component does not run
+  ec.stop();
+  EXPECT_GE(ec.wake_jitter().summarize().count, 20u);
+  EXPECT_EQ(l.state(), LifecycleState::inactive);
+}
+
+TEST(ExecutionContext, RefusedRealtimePriorityFallsBackWithAWarning) {
+  Recorder c;
+  Lifecycle l(c);
+  // Priority 99 under SCHED_FIFO needs CAP_SYS_NICE; either it is granted (and applied) or
+  // the context says why not and still runs.
+  ExecutionContext ec(ExecutionSettings{"rt-ec", Nanos{1'000'000}, SchedPolicy::fifo, 99, 0});
+  ec.add(l);
+  std::vector<std::string> warnings;
+  ec.start(warnings);
+  ec.command(l, LifecycleCommand::initialize);
+  ec.command(l, LifecycleCommand::activate);
+  ASSERT_TRUE(eventually([&] { return l.executions() >= 5; }));
+  ec.stop();
+  if (ec.realtime_applied()) {
+    EXPECT_TRUE(warnings.empty() || !ec.pinned());
+  } else {
+    ASSERT_FALSE(warnings.empty());
+    EXPECT_NE(warnings.front().find("real-time priority 99 refused"), std::string::npos) << warnings.front();
+  }
+}
+
+TEST(ExecutionContextPool, SharesContextsByPeriodAndPriority) {
+  ExecutionContextPool pool;
+  ExecutionSettings ten{"a", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt};
+  ExecutionSettings five{"b", Nanos{5'000'000}, SchedPolicy::other, 0, std::nullopt};
+  EXPECT_EQ(&pool.shared(ten), &pool.shared(ten));
+  EXPECT_NE(&pool.shared(ten), &pool.shared(five));
+  EXPECT_NE(&pool.exclusive(ten), &pool.shared(ten));
+  EXPECT_EQ(pool.contexts().size(), 3u);
+}
+
+}  // namespace
+}  // namespace polyport
