@@ -1,0 +1,87 @@
+// The cost of one in-process connection: DataOutPort::write (stamp, deliver, hand-off into
+// the policy's buffer or a push sink) plus DataInPort::read on the same thread, for each
+// policy and for 16 B and 1 KiB samples.
+//
+// Two views of the same thing, both reported by Google Benchmark's JSON output:
+//  - per repetition, the mean ns of one write+read (median and p99 over 50 repetitions:
+//    the aggregates `_median` and `_p99`);
+//  - per sample, the connection's own t_out - t_in histogram (counters conn_p50_ns,
+//    conn_p99_ns), which includes one clock read.
+// Run: ./scripts/bench.sh (writes benchmarks/results/inproc_connection-<date>.json).
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <vector>
+
+#include "polyport/component.hpp"
+#include "polyport/connection.hpp"
+
+namespace {
+
+using namespace polyport;
+
+class NullSink final : public SampleSink {
+ public:
+  Status on_sample(const std::byte* data, const SampleMeta&) noexcept override {
+    benchmark::DoNotOptimize(data);
+    return Status::ok;
+  }
+};
+
+enum class Mode { data, buffer, circular, push };
+
+void BM_InprocConnection(benchmark::State& state) {
+  const auto mode = static_cast<Mode>(state.range(0));
+  const auto bytes = static_cast<std::uint32_t>(state.range(1));
+  Component a{"A", "inproc"};
+  Component b{"B", "inproc"};
+  auto& out = a.add_port<DataOutPort>("out", PortKind::data, nullptr, bytes);
+  const QueuePolicy policy = mode == Mode::buffer     ? QueuePolicy::buffer
+                             : mode == Mode::circular ? QueuePolicy::circular
+                                                      : QueuePolicy::data;
+  auto& in = b.add_port<DataInPort>("in", PortKind::data, nullptr, bytes, policy, 16);
+  NullSink sink;
+  if (mode == Mode::push) in.set_sink(&sink);
+  Connection connection(out, in, policy, 16);
+  out.connections().add(connection);
+  in.connections().add(connection);
+  std::vector<std::byte> sample(bytes, std::byte{1}), received(bytes);
+
+  for (auto _ : state) {
+    out.write(sample.data(), bytes);
+    if (mode != Mode::push) in.read(received.data(), bytes);
+    benchmark::ClobberMemory();
+  }
+  const auto summary = connection.latency().summarize();
+  state.counters["conn_p50_ns"] = static_cast<double>(summary.p50);
+  state.counters["conn_p99_ns"] = static_cast<double>(summary.p99);
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations()) * bytes);
+  state.SetLabel(mode == Mode::push ? "push" : std::string(to_string(policy)));
+}
+
+double p99(const std::vector<double>& v) {
+  std::vector<double> sorted(v);
+  std::sort(sorted.begin(), sorted.end());
+  return sorted[static_cast<std::size_t>(0.99 * static_cast<double>(sorted.size() - 1))];
+}
+
+BENCHMARK(BM_InprocConnection)
+    ->ArgNames({"mode", "bytes"})
+    ->ArgsProduct({{static_cast<int>(Mode::data), static_cast<int>(Mode::buffer), static_cast<int>(Mode::circular),
+                    static_cast<int>(Mode::push)},
+                   {16, 1024}})
+    ->Repetitions(50)
+    ->ComputeStatistics("p99", p99)
+    ->ReportAggregatesOnly(true);
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (const char* revision = std::getenv("POLYPORT_GIT_REVISION")) benchmark::AddCustomContext("git_revision", revision);
+  benchmark::AddCustomContext("benchmark", "in-process connection: write + read, same thread");
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
