@@ -12,9 +12,12 @@
 #include "polyport/connection.hpp"
 #include "polyport/engine.hpp"
 #include "polyport/types.hpp"
+#include "../support/eventually.hpp"
 
 namespace polyport {
 namespace {
+
+using test::eventually;
 
 using test::allocations;
 
@@ -58,16 +61,6 @@ TEST(ForwardingAllocations, EveryPolicyAndPushModeAllocateNothingPerSample) {
   EXPECT_EQ(c4.counters().delivered.load(), 10'000u);
   EXPECT_GT(c2.counters().dropped_queue_full.load(), 0u);
   EXPECT_GT(c3.counters().dropped_oldest.load(), 0u);
-}
-
-template <class F>
-bool eventually(F&& condition) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (!condition()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
-  return true;
 }
 
 TEST(ForwardingAllocations, RunningWheelchairApplicationAllocatesNothingAfterStartUp) {

@@ -11,19 +11,12 @@
 #include "polyport/component_api.hpp"
 #include "polyport/engine.hpp"
 #include "polyport/types.hpp"
+#include "../support/eventually.hpp"
 
 namespace polyport {
 namespace {
 
-template <class F>
-bool eventually(F&& condition) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (!condition()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
-  return true;
-}
+using test::eventually;
 
 class EngineTest : public ::testing::Test {
  protected:

@@ -9,9 +9,12 @@
 
 #include "polyport/component_api.hpp"
 #include "polyport/execution_context.hpp"
+#include "../support/eventually.hpp"
 
 namespace polyport {
 namespace {
+
+using test::eventually;
 
 class Recorder final : public ComponentBase {
  public:
@@ -123,17 +126,6 @@ TEST(Lifecycle, NamesOfAllThreeModelsAreAccepted) {
   EXPECT_EQ(parse_lifecycle_command("onDestroy"), LifecycleCommand::finalize);
   EXPECT_EQ(parse_lifecycle_command("onRecover"), LifecycleCommand::recover);
   EXPECT_EQ(parse_lifecycle_command("jump"), std::nullopt);
-}
-
-// Waits for a condition with a deadline; the test fails if it never becomes true.
-template <class F>
-bool eventually(F&& condition, std::chrono::milliseconds limit = std::chrono::milliseconds(5000)) {
-  const auto deadline = std::chrono::steady_clock::now() + limit;
-  while (!condition()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  return true;
 }
 
 TEST(ExecutionContext, RunsHooksOnItsOwnThreadAtItsPeriod) {
