@@ -13,6 +13,10 @@ packages=(
   libgtest-dev libgmock-dev  # tests
   libbenchmark-dev       # micro-benchmarks (built with -DPOLYPORT_BUILD_BENCHMARKS=ON)
   libxml2-utils          # xmllint: shipped profiles are validated against config/polyport.xsd
+  cyclonedds-dev cyclonedds-tools   # Cyclone DDS 0.10 and idlc: reference CDR peers in the tests
+  libfastrtps-dev libfastcdr-dev fastddsgen  # Fast DDS 2.9, Fast CDR and fastddsgen: reference peers
+  liblcm-dev liblcm-bin  # LCM 1.3 and lcm-gen: reference fingerprints and encodings
+  clang libclang-rt-14-dev  # libFuzzer for the parser and decoder fuzz targets
 )
 
 missing=()

@@ -882,28 +882,13 @@ class IdlParser {
         ok = false;
         continue;
       }
-      type.fields.push_back(Field{name, field_type, 0, location(name_token)});
+      type.fields.push_back(Field{name, field_type, 0, location(name_token), {}});
     } while (accept(","));
     expect(";", "expected ';' after member declaration");
     return ok;
   }
 
-  static bool layout_struct(Type& type) {
-    std::uint64_t offset = 0;
-    std::uint32_t align = 1;
-    for (Field& field : type.fields) {
-      offset = align_up(offset, field.type->align);
-      if (offset > kMaxTypeSize) return false;
-      field.offset = static_cast<std::uint32_t>(offset);
-      offset += field.type->size;
-      align = std::max(align, field.type->align);
-    }
-    const std::uint64_t size = align_up(offset, align);
-    if (size > kMaxTypeSize) return false;
-    type.size = static_cast<std::uint32_t>(size);
-    type.align = align;
-    return true;
-  }
+  static bool layout_struct(Type& type) { return TypeRegistry::layout_struct(type); }
 
   void parse_enum() {
     next();  // enum

@@ -703,7 +703,7 @@ class Loader {
     std::set<fs::path> loaded;
     for (const auto& file : pending_type_files_) {
       if (!loaded.insert(file).second) continue;
-      types_.add_idl_file(file, diagnostics_);
+      types_.add_type_file(file, diagnostics_);
     }
   }
 

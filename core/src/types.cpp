@@ -389,6 +389,117 @@ std::optional<ConstValue> TypeRegistry::constant(std::string_view qualified_name
 
 Type& TypeRegistry::make_type() { return storage_.emplace_back(); }
 
+bool TypeRegistry::add_type_file(const std::filesystem::path& file, Diagnostics& diagnostics) {
+  const std::string extension = file.extension().string();
+  if (extension == ".idl") return add_idl_file(file, diagnostics);
+  if (extension == ".lcm") return add_lcm_file(file, diagnostics);
+  if (extension == ".dbc") return add_dbc_file(file, diagnostics);
+  diagnostics.error(SourceLocation{file.string(), 0, 0}, {},
+                    "unknown kind of type file (expected .idl, .lcm or .dbc)");
+  return false;
+}
+
+namespace {
+constexpr std::uint64_t kLayoutLimit = 0xFFFFFFFFu;
+std::uint64_t align_to(std::uint64_t value, std::uint64_t align) { return (value + align - 1) / align * align; }
+}  // namespace
+
+bool TypeRegistry::layout_struct(Type& type) noexcept {
+  std::uint64_t offset = 0;
+  std::uint32_t align = 1;
+  for (Field& field : type.fields) {
+    offset = align_to(offset, field.type->align);
+    if (offset > kLayoutLimit) return false;
+    field.offset = static_cast<std::uint32_t>(offset);
+    offset += field.type->size;
+    align = std::max(align, field.type->align);
+  }
+  const std::uint64_t size = align_to(offset, align);
+  if (size > kLayoutLimit) return false;
+  type.size = static_cast<std::uint32_t>(size);
+  type.align = align;
+  return true;
+}
+
+const Type* TypeRegistry::array_of(const Type* element, std::uint32_t length) {
+  // Multi-dimensional arrays read as IDL writes them: an array of double[4] is double[3][4].
+  const Type* innermost = element;
+  while (innermost->kind == TypeKind::array) innermost = innermost->element;
+  const std::string name = innermost->name + "[" + std::to_string(length) + "]" +
+                           element->name.substr(innermost->name.size());
+  if (auto it = anonymous_.find(name); it != anonymous_.end()) return it->second;
+  const std::uint64_t size = static_cast<std::uint64_t>(length) * element->size;
+  if (size > kLayoutLimit) return nullptr;
+  Type& type = make_type();
+  type.kind = TypeKind::array;
+  type.name = name;
+  type.size = static_cast<std::uint32_t>(size);
+  type.align = element->align;
+  type.bound = length;
+  type.element = element;
+  anonymous_.emplace(name, &type);
+  return &type;
+}
+
+const Type* TypeRegistry::sequence_of(const Type* element, std::uint32_t bound) {
+  const std::string name =
+      "sequence<" + element->name + (bound ? ", " + std::to_string(bound) : std::string()) + ">";
+  if (auto it = anonymous_.find(name); it != anonymous_.end()) return it->second;
+  std::uint64_t size = sizeof(FlatSpan);
+  std::uint32_t align = alignof(FlatSpan);
+  if (bound != 0) {
+    align = std::max<std::uint32_t>(alignof(std::uint32_t), element->align);
+    size = align_to(align_to(sizeof(std::uint32_t), element->align) + static_cast<std::uint64_t>(bound) * element->size,
+                    align);
+    if (size > kLayoutLimit) return nullptr;
+  }
+  Type& type = make_type();
+  type.kind = TypeKind::sequence;
+  type.name = name;
+  type.size = static_cast<std::uint32_t>(size);
+  type.align = align;
+  type.bound = bound;
+  type.element = element;
+  anonymous_.emplace(name, &type);
+  return &type;
+}
+
+const Type* TypeRegistry::string_of(std::uint32_t bound) {
+  if (bound == 0) return find("string");
+  const std::string name = "string<" + std::to_string(bound) + ">";
+  if (auto it = anonymous_.find(name); it != anonymous_.end()) return it->second;
+  if (bound >= kLayoutLimit) return nullptr;
+  Type& type = make_type();
+  type.kind = TypeKind::string;
+  type.name = name;
+  type.size = bound + 1;
+  type.align = 1;
+  type.bound = bound;
+  anonymous_.emplace(name, &type);
+  return &type;
+}
+
+const Type* TypeRegistry::declare_struct(const std::string& qualified_name, std::vector<Field> fields,
+                                         const SourceLocation& where, Diagnostics& diagnostics) {
+  if (by_name_.count(qualified_name) != 0) {
+    diagnostics.error(where, {}, "redefinition of '" + qualified_name + "'");
+    return nullptr;
+  }
+  Type type;
+  type.kind = TypeKind::structure;
+  type.name = qualified_name;
+  type.fields = std::move(fields);
+  type.where = where;
+  if (!layout_struct(type)) {
+    diagnostics.error(where, {}, "type '" + qualified_name + "' is too large");
+    return nullptr;
+  }
+  Type& stored = make_type();
+  stored = std::move(type);
+  declare(stored);
+  return &stored;
+}
+
 void TypeRegistry::declare(Type& type) {
   by_name_.emplace(type.name, &type);
   declared_.push_back(&type);

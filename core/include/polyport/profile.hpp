@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "polyport/diagnostics.hpp"
+#include "polyport/mapping.hpp"
 
 namespace polyport {
 
@@ -96,6 +97,7 @@ struct ConnectionSpec {
   ConnectionEnd target;
   std::optional<QueuePolicy> policy;   // overrides the input port's policy
   std::optional<std::uint32_t> depth;
+  std::optional<MappingSpec> mapping;  // <mapping> inside <port_connection>
   SourceLocation where;
 };
 

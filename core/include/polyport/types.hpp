@@ -23,6 +23,7 @@
 #include <deque>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -46,12 +47,20 @@ enum class TypeKind : std::uint8_t {
 };
 
 struct Type;
+struct DbcMessage;  // dbc.hpp
+
+enum class TypeOrigin : std::uint8_t { builtin, idl, lcm, dbc };
+// XTypes extensibility (IDL @final / @appendable / @mutable); decides the XCDR2 encoding.
+enum class Extensibility : std::uint8_t { final_, appendable, mutable_ };
 
 struct Field {
   std::string name;
   const Type* type = nullptr;
   std::uint32_t offset = 0;
   SourceLocation where;
+  // LCM variable-size dimensions: for each sequence level of `type`, outermost first, the
+  // name of the sibling integer field that holds its length (empty for other fields).
+  std::vector<std::string> length_fields;
 };
 
 struct Enumerator {
@@ -71,6 +80,10 @@ struct Type {
   std::vector<Field> fields;       // structure
   std::vector<Enumerator> enumerators;  // enumeration
   SourceLocation where;        // declaration; empty for built-ins
+  TypeOrigin origin = TypeOrigin::builtin;
+  Extensibility extensibility = Extensibility::final_;  // structs from IDL
+  std::uint64_t lcm_fingerprint = 0;  // structs from .lcm files: the hash lcm-gen computes
+  const DbcMessage* dbc = nullptr;    // structs from DBC files: the message's frame layout
 
   // Follows aliases down to the real type.
   const Type& resolved() const noexcept;
@@ -97,6 +110,17 @@ class TypeRegistry {
   // error may still be registered). A file already added (same canonical path) is skipped.
   bool add_idl_file(const std::filesystem::path& file, Diagnostics& diagnostics);
   bool add_idl_text(std::string_view text, const std::string& file_name, Diagnostics& diagnostics);
+  // LCM type files (lcm_parser.cpp) and DBC files (dbc_parser.cpp), same contract.
+  bool add_lcm_file(const std::filesystem::path& file, Diagnostics& diagnostics);
+  bool add_lcm_text(std::string_view text, const std::string& file_name, Diagnostics& diagnostics);
+  bool add_dbc_file(const std::filesystem::path& file, Diagnostics& diagnostics);
+  bool add_dbc_text(std::string_view text, const std::string& file_name, Diagnostics& diagnostics);
+  // Chooses by extension: .idl, .lcm, .dbc; anything else is an error.
+  bool add_type_file(const std::filesystem::path& file, Diagnostics& diagnostics);
+
+  // Keeps an object alive as long as the registry (format-specific facts about types that
+  // Type points to, such as DBC frame layouts).
+  void retain(std::shared_ptr<const void> object) { retained_.push_back(std::move(object)); }
 
   // Looks a type up by qualified name: "a::b::T", "::a::b::T" and the primitive IDL names
   // ("double", "long", "unsigned long long", "int32", "uint8", "float64", ...).
@@ -107,12 +131,26 @@ class TypeRegistry {
   std::vector<const Type*> declared() const;
   std::optional<ConstValue> constant(std::string_view qualified_name) const;
 
+  // Building types from sources other than IDL (`.lcm` and DBC files). Anonymous types are
+  // shared by their IDL spelling ("double[3]", "sequence<long>", "string<8>"); null when
+  // the type would exceed the size limit.
+  const Type* array_of(const Type* element, std::uint32_t length);
+  const Type* sequence_of(const Type* element, std::uint32_t bound);  // 0: unbounded
+  const Type* string_of(std::uint32_t bound);                         // 0: unbounded
+  // Lays out a struct of these fields (their offsets are computed) and registers it under
+  // `qualified_name`. Reports and returns null when the name is taken or it is too large.
+  const Type* declare_struct(const std::string& qualified_name, std::vector<Field> fields,
+                             const SourceLocation& where, Diagnostics& diagnostics);
+  // Computes field offsets, size and alignment of a struct by the layout rules above.
+  static bool layout_struct(Type& type) noexcept;
+
  private:
   friend class IdlParser;
   Type& make_type();  // stable address; owned by the registry
   void declare(Type& type);
 
   std::deque<Type> storage_;
+  std::vector<std::shared_ptr<const void>> retained_;
   std::map<std::string, const Type*, std::less<>> by_name_;
   std::vector<const Type*> declared_;
   std::map<std::string, ConstValue, std::less<>> constants_;
