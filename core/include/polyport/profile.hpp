@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -98,6 +99,9 @@ struct ConnectionSpec {
   std::optional<QueuePolicy> policy;   // overrides the input port's policy
   std::optional<std::uint32_t> depth;
   std::optional<MappingSpec> mapping;  // <mapping> inside <port_connection>
+  // Set by the loader when the two ends' types differ: the compiled mapping (the spec's, or
+  // by name when there is none). Null when the types are the same.
+  std::shared_ptr<const MappingProgram> program;
   SourceLocation where;
 };
 
