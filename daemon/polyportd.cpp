@@ -118,6 +118,7 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
     if (c.contains("policy")) out << "  policy=" << c["policy"].get<std::string>();
     if (c.contains("depth")) out << "  depth=" << c["depth"];
     if (c.contains("mode")) out << "  mode=" << c["mode"].get<std::string>();
+    if (c.contains("conversion")) out << "  conversion=" << c["conversion"].get<std::string>();
     if (c.contains("max_in_flight")) out << "  max_in_flight=" << c["max_in_flight"];
     out << "\n";
   }

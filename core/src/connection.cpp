@@ -5,6 +5,8 @@
 
 #include "polyport/component.hpp"
 
+#include <algorithm>
+
 namespace polyport {
 
 namespace {
@@ -21,17 +23,77 @@ std::unique_ptr<SampleBuffer> make_buffer(QueuePolicy policy, std::uint32_t dept
 }
 }  // namespace
 
-Connection::Connection(DataOutPort& source, DataInPort& target, QueuePolicy policy, std::uint32_t depth)
+Connection::Connection(DataOutPort& source, DataInPort& target, QueuePolicy policy, std::uint32_t depth,
+                       const MappingProgram* mapping)
     : source_(source),
       target_(target),
       policy_(policy),
       depth_(policy == QueuePolicy::data ? 1 : depth),
-      buffer_(target.sink() ? nullptr : make_buffer(policy, depth_, target.max_sample_bytes())) {}
+      buffer_(target.sink() ? nullptr : make_buffer(policy, depth_, target.max_sample_bytes())),
+      mapping_(mapping),
+      converts_(mapping != nullptr || source.wire_format() != target.wire_format() || source.type() != target.type()) {
+  if (!converts_) return;
+  // Flat samples of either type, with the larger port's room for unbounded tails.
+  flat_capacity_ = std::max(source.max_sample_bytes(), target.max_sample_bytes());
+  if (source.type()) flat_capacity_ = std::max(flat_capacity_, source.type()->size);
+  if (target.type()) flat_capacity_ = std::max(flat_capacity_, target.type()->size);
+  wire_capacity_ = target.codec() ? target.codec()->max_wire_size(flat_capacity_) : flat_capacity_;
+  if (source.codec()) decoded_ = std::make_unique<std::byte[]>(flat_capacity_);
+  if (mapping_) mapped_ = std::make_unique<std::byte[]>(flat_capacity_);
+  if (target.codec()) encoded_ = std::make_unique<std::byte[]>(wire_capacity_);
+}
 
 std::string Connection::name() const { return source_.full_name() + " -> " + target_.full_name(); }
 
+std::string Connection::conversion() const {
+  if (!converts_) return "passthrough";
+  std::string steps(to_string(source_.wire_format()));
+  if (source_.codec()) steps += " -> flat";
+  if (mapping_) steps += " -> map";
+  if (target_.codec()) steps += " -> " + std::string(to_string(target_.wire_format()));
+  return steps;
+}
+
 void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept {
   counters_.received.fetch_add(1, std::memory_order_relaxed);
+  if (!converts_) {
+    hand_over(data, meta);
+    return;
+  }
+  SampleMeta converted = meta;
+  const std::byte* bytes = data;
+  if (const Codec* codec = source_.codec()) {
+    const CodecResult decoded = codec->decode(bytes, converted.size, decoded_.get(), flat_capacity_);
+    if (!decoded.ok()) {
+      counters_.dropped_decode_error.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    bytes = decoded_.get();
+    converted.size = decoded.size;
+  }
+  if (mapping_) {
+    std::uint32_t mapped_size = 0;
+    if (!mapping_->run(bytes, converted.size, mapped_.get(), flat_capacity_, mapped_size)) {
+      counters_.dropped_map_error.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    bytes = mapped_.get();
+    converted.size = mapped_size;
+  }
+  if (const Codec* codec = target_.codec()) {
+    const CodecResult encoded = codec->encode(bytes, converted.size, encoded_.get(), wire_capacity_);
+    if (!encoded.ok()) {
+      counters_.dropped_encode_error.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    if (encoded.clamped) counters_.clamped.fetch_add(encoded.clamped, std::memory_order_relaxed);
+    bytes = encoded_.get();
+    converted.size = encoded.size;
+  }
+  hand_over(bytes, converted);
+}
+
+void Connection::hand_over(const std::byte* data, const SampleMeta& meta) noexcept {
   if (!buffer_) {
     const Status status = target_.sink()->on_sample(data, meta);
     latency_.record((mono_now() - meta.t_in).count);

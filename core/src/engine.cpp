@@ -55,14 +55,15 @@ bool Engine::build(const ApplicationProfile& profile, Diagnostics& diagnostics) 
       diagnostics.error(spec.where, {}, "connection endpoint not created by its model");
       continue;
     }
-    auto connected = connect_ports(*source, *target, spec.policy, spec.depth);
+    auto connected = connect_ports(*source, *target, spec.policy, spec.depth, spec.program);
     if (!connected) diagnostics.error(spec.where, {}, connected.error().message);
   }
   return !diagnostics.has_errors();
 }
 
 Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optional<QueuePolicy> policy,
-                                          std::optional<std::uint32_t> depth) {
+                                          std::optional<std::uint32_t> depth,
+                                          std::shared_ptr<const MappingProgram> mapping) {
   if (source.kind() != target.kind()) {
     return make_error(source.full_name() + " is a " + std::string(to_string(source.kind())) + " port but " +
                       target.full_name() + " is a " + std::string(to_string(target.kind())) + " port");
@@ -87,13 +88,14 @@ Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optio
   auto* out = dynamic_cast<DataOutPort*>(&source);
   auto* in = dynamic_cast<DataInPort*>(&target);
   if (!out || !in) return make_error("a " + std::string(to_string(source.kind())) + " connection goes from an output port to an input port");
-  if (out->type() && in->type() && out->type() != in->type()) {
+  if (!mapping && out->type() && in->type() && out->type() != in->type()) {
     return make_error("type mismatch: " + out->full_name() + " is '" + type_name(*out) + "' but " +
                       in->full_name() + " is '" + type_name(*in) + "'");
   }
   const QueuePolicy effective = policy.value_or(in->policy());
   const std::uint32_t effective_depth = depth.value_or(in->depth() ? in->depth() : kDefaultDepth);
-  connections_.push_back(std::make_unique<Connection>(*out, *in, effective, effective_depth));
+  connections_.push_back(std::make_unique<Connection>(*out, *in, effective, effective_depth, mapping.get()));
+  if (mapping) mappings_.push_back(std::move(mapping));
   Connection& connection = *connections_.back();
   in->connections().add(connection);
   out->connections().add(connection);
@@ -200,7 +202,8 @@ void Engine::describe(nlohmann::json& out) const {
                      {"kind", to_string(c->source().kind())},
                      {"type", type_name(c->source())},
                      {"policy", to_string(c->policy())},
-                     {"mode", c->push_mode() ? "push" : "pull"}};
+                     {"mode", c->push_mode() ? "push" : "pull"},
+                     {"conversion", c->conversion()}};
     if (c->policy() != QueuePolicy::data) j["depth"] = c->depth();
     out["connections"].push_back(std::move(j));
   }
@@ -250,7 +253,12 @@ void Engine::stats(nlohmann::json& out) const {
                       {{"queue_full", load(k.dropped_queue_full)},
                        {"oldest", load(k.dropped_oldest)},
                        {"too_large", load(k.dropped_too_large)},
-                       {"sink_error", load(k.dropped_sink_error)}}},
+                       {"sink_error", load(k.dropped_sink_error)},
+                       {"decode_error", load(k.dropped_decode_error)},
+                       {"map_error", load(k.dropped_map_error)},
+                       {"encode_error", load(k.dropped_encode_error)}}},
+                     {"clamped", load(k.clamped)},
+                     {"conversion", c->conversion()},
                      {"latency_ns", to_json(c->latency().summarize())}};
     if (!c->push_mode()) j["age_at_read_ns"] = to_json(c->age().summarize());
     out["connections"].push_back(std::move(j));

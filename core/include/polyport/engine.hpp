@@ -66,13 +66,15 @@ class Engine {
   };
 
   Result<Connection*> connect_ports(Port& source, Port& target, std::optional<QueuePolicy> policy,
-                                    std::optional<std::uint32_t> depth);
+                                    std::optional<std::uint32_t> depth,
+                                    std::shared_ptr<const MappingProgram> mapping = nullptr);
 
   const ModelRegistry& models_;
   TypeRegistry& types_;
   ExecutionContextPool executors_;
   std::vector<Node> nodes_;
   std::vector<std::unique_ptr<Connection>> connections_;
+  std::vector<std::shared_ptr<const MappingProgram>> mappings_;  // used by connections_
   std::vector<std::pair<RequiredServicePort*, ProvidedServicePort*>> service_links_;
   std::string name_;
   std::unique_ptr<Component> probes_;

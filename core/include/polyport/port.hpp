@@ -24,8 +24,10 @@
 namespace polyport {
 
 struct Type;
+class Codec;
 class Component;
 class Connection;
+enum class WireFormat : std::uint8_t;
 
 class Port {
  public:
@@ -41,12 +43,24 @@ class Port {
   Component& owner() const noexcept { return owner_; }
   std::string full_name() const;  // "Component.port"
 
+  // How samples on this port are encoded: flat (in-process) unless the adaptor of a foreign
+  // model says otherwise and gives the codec between its format and the flat layout.
+  // Set before wiring.
+  WireFormat wire_format() const noexcept { return format_; }
+  const Codec* codec() const noexcept { return codec_; }
+  void set_wire_format(WireFormat format, const Codec* codec) noexcept {
+    format_ = format;
+    codec_ = codec;
+  }
+
  private:
   Component& owner_;
   std::string name_;
   PortKind kind_;
   PortDirection direction_;
   const Type* type_;
+  WireFormat format_{};  // flat
+  const Codec* codec_ = nullptr;
 };
 
 // The connections of one port: an immutable list, replaced whole when the wiring changes.
