@@ -23,6 +23,7 @@
 #include "polyport/profile.hpp"
 #include "polyport/types.hpp"
 #include "tracer.hpp"
+#include "types_command.hpp"
 
 namespace {
 
@@ -38,7 +39,8 @@ constexpr const char* kExitCodesHelp =
     "  0  ran and stopped cleanly (run), or no problem found (check)\n"
     "  1  run-time failure: a component did not start, an output file could not be written\n"
     "  2  bad command line\n"
-    "  3  a profile has problems, each printed as file:line:col: element path: message\n";
+    "  3  a profile (or a type file, for `types`) has problems, each printed as\n"
+    "     file:line:col: element path: message\n";
 
 struct Options {
   std::vector<std::string> profiles;
@@ -288,6 +290,10 @@ int main(int argc, char** argv) {
   check->add_option("profiles", options.profiles, "application profile(s)")->required();
   check->add_flag("--json", options.json, "print the resolved graph as JSON");
 
+  CLI::App* types = app.add_subcommand("types", "print what IDL, .lcm and DBC files define (layouts, fingerprints, frames)");
+  types->add_option("files", options.profiles, "type files (.idl, .lcm, .dbc)")->required();
+  types->add_flag("--json", options.json, "print as JSON");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -301,5 +307,6 @@ int main(int argc, char** argv) {
   spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ %v");
 
   if (check->parsed()) return run_check(options);
+  if (types->parsed()) return daemon::run_types(options.profiles, options.json);
   return run_daemon(options);
 }
