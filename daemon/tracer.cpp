@@ -29,7 +29,11 @@ std::size_t Tracer::drain() {
   std::size_t written = 0;
   for (Probe& probe : probes_) {
     SampleMeta meta{};
-    while (probe.port->read(probe.buffer.data(), static_cast<std::uint32_t>(probe.buffer.size()), &meta) == Status::ok) {
+    // At most one probe's depth per call, so a writer faster than the formatting here cannot
+    // keep the control thread from its signals; the circular probe drops the oldest instead.
+    for (std::uint32_t n = 0; n < probe.port->depth() &&
+                              probe.port->read(probe.buffer.data(), static_cast<std::uint32_t>(probe.buffer.size()), &meta) == Status::ok;
+         ++n) {
       const std::string value = probe.port->type() ? sample_to_json(*probe.port->type(), probe.buffer.data(), meta.size)
                                                    : std::string("null");
       std::fprintf(out_, "{\"t_ns\":%lld,\"port\":\"%s\",\"value\":%s}\n", static_cast<long long>(meta.t_in.ns),

@@ -11,6 +11,7 @@ namespace polyport {
 namespace {
 
 constexpr std::uint32_t kDefaultDepth = 16;
+constexpr std::uint32_t kMaxDepth = 1u << 20;
 
 nlohmann::json to_json(const LatencyHistogram::Summary& s) {
   return {{"count", s.count}, {"min", s.min}, {"mean", s.mean}, {"p50", s.p50}, {"p90", s.p90},
@@ -69,6 +70,10 @@ Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optio
                       target.full_name() + " is a " + std::string(to_string(target.kind())) + " port");
   }
   if (source.kind() == PortKind::service) {
+    if (started_) {
+      // Callers read the binding without a lock; it is fixed while the application runs.
+      return make_error("service ports cannot be connected while the application runs");
+    }
     auto* required = dynamic_cast<RequiredServicePort*>(&source);
     auto* provided = dynamic_cast<ProvidedServicePort*>(&target);
     if (!required || !provided) {
@@ -94,7 +99,15 @@ Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optio
   }
   const QueuePolicy effective = policy.value_or(in->policy());
   const std::uint32_t effective_depth = depth.value_or(in->depth() ? in->depth() : kDefaultDepth);
-  connections_.push_back(std::make_unique<Connection>(*out, *in, effective, effective_depth, mapping.get()));
+  if (effective != QueuePolicy::data && (effective_depth == 0 || effective_depth > kMaxDepth)) {
+    return make_error("queue depth " + std::to_string(effective_depth) + " is out of range (1 to " +
+                      std::to_string(kMaxDepth) + ")");
+  }
+  try {
+    connections_.push_back(std::make_unique<Connection>(*out, *in, effective, effective_depth, mapping.get()));
+  } catch (const std::exception& e) {
+    return make_error("cannot create the connection " + out->full_name() + " -> " + in->full_name() + ": " + e.what());
+  }
   if (mapping) mappings_.push_back(std::move(mapping));
   Connection& connection = *connections_.back();
   in->connections().add(connection);

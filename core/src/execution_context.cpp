@@ -3,8 +3,13 @@
 // mutex: the control path, never the data path) and serves queued service calls.
 #include "polyport/execution_context.hpp"
 
+#include <linux/futex.h>
 #include <pthread.h>
 #include <sched.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <climits>
 
 #include <cerrno>
 #include <cstring>
@@ -14,7 +19,10 @@
 
 namespace polyport {
 
-ExecutionContext::ExecutionContext(ExecutionSettings settings) : settings_(std::move(settings)) {}
+ExecutionContext::ExecutionContext(ExecutionSettings settings) : settings_(std::move(settings)) {
+  // Models refuse periods under kMinPeriod with a diagnostic; this guards the arithmetic.
+  if (settings_.period < kMinPeriod) settings_.period = kMinPeriod;
+}
 
 ExecutionContext::~ExecutionContext() { stop(); }
 
@@ -61,36 +69,58 @@ void ExecutionContext::start(std::vector<std::string>& warnings) {
 void ExecutionContext::stop() {
   if (!thread_.joinable()) return;
   stop_requested_.store(true, std::memory_order_release);
+  wake();
   thread_.join();
   running_.store(false, std::memory_order_release);
   for (ProvidedServicePort* port : served_) port->cancel_queued(Status::not_active);
 }
 
 ReturnCode ExecutionContext::command(Lifecycle& lifecycle, LifecycleCommand command) {
-  if (!running()) return lifecycle.apply(command);
   std::unique_lock<std::mutex> lock(command_mutex_);
-  // One command at a time: wait for an earlier one to finish.
-  command_done_.wait(lock, [&] { return !command_pending_.load(std::memory_order_acquire); });
+  // One command at a time; commands are rare, so waiting callers simply queue on the mutex.
+  command_done_.wait(lock, [&] { return !command_pending_.load(std::memory_order_acquire) || !running(); });
+  if (!running()) return lifecycle.apply(command);  // serialized by the mutex
   command_target_ = &lifecycle;
   command_ = command;
   command_finished_ = false;
   command_pending_.store(true, std::memory_order_release);
+  wake();
   command_done_.wait(lock, [&] { return command_finished_ || !running(); });
-  if (!command_finished_) {  // the thread ended first
-    command_pending_.store(false, std::memory_order_release);
-    return lifecycle.apply(command);
-  }
+  // If the thread ended before taking the command, run it here, still under the mutex.
+  const ReturnCode result = command_finished_ ? command_result_ : lifecycle.apply(command);
   command_pending_.store(false, std::memory_order_release);
   command_done_.notify_all();
-  return command_result_;
+  return result;
 }
 
 void ExecutionContext::apply_pending_command() {
   std::lock_guard<std::mutex> lock(command_mutex_);
-  if (command_finished_) return;  // taken already; the caller has not picked it up yet
+  if (!command_pending_.load(std::memory_order_acquire) || command_finished_) return;
   command_result_ = command_target_->apply(command_);
   command_finished_ = true;
   command_done_.notify_all();
+}
+
+void ExecutionContext::wake() noexcept {
+  wake_word_.fetch_add(1, std::memory_order_release);
+  syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(&wake_word_), FUTEX_WAKE_PRIVATE, INT_MAX, nullptr, nullptr, 0);
+}
+
+void ExecutionContext::sleep_until(MonoTime deadline) {
+  // A futex wait with an absolute CLOCK_MONOTONIC deadline (FUTEX_WAIT_BITSET) sleeps as
+  // precisely as clock_nanosleep, but a command or stop() can wake it at once.
+  for (;;) {
+    const std::uint32_t seen = wake_word_.load(std::memory_order_acquire);
+    if (stop_requested_.load(std::memory_order_acquire)) return;
+    if (command_pending_.load(std::memory_order_acquire)) {
+      apply_pending_command();
+      continue;
+    }
+    if (mono_now() >= deadline) return;
+    const timespec until = to_timespec(deadline);
+    syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(&wake_word_), FUTEX_WAIT_BITSET_PRIVATE, seen, &until,
+            nullptr, FUTEX_BITSET_MATCH_ANY);
+  }
 }
 
 void ExecutionContext::run() {
@@ -113,14 +143,13 @@ void ExecutionContext::run() {
       missed_.fetch_add(static_cast<std::uint64_t>(behind), std::memory_order_relaxed);
       deadline = deadline + Nanos{behind * settings_.period.count};
     }
-    const timespec wake = to_timespec(deadline);
-    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &wake, nullptr) == EINTR) {
-    }
+    sleep_until(deadline);
+    if (stop_requested_.load(std::memory_order_acquire)) break;
     jitter_.record((mono_now() - deadline).count);
   }
   // Let a waiting command caller fall back to running inline.
-  running_.store(false, std::memory_order_release);
   std::lock_guard<std::mutex> lock(command_mutex_);
+  running_.store(false, std::memory_order_release);
   command_done_.notify_all();
 }
 

@@ -141,6 +141,7 @@ ReturnCode Lifecycle::apply(LifecycleCommand command) noexcept {
       if (code != ReturnCode::ok) return code;
       set(LifecycleState::inactive);
       code = guarded([&] { return c.onActivated(); });
+      if (code != ReturnCode::ok) errors_.fetch_add(1, std::memory_order_relaxed);
       set(code == ReturnCode::ok ? LifecycleState::active : LifecycleState::error);
       return code;
     }

@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cstring>
+#include <thread>
 
 #include "polyport/types.hpp"
 
@@ -48,28 +49,36 @@ void ProvidedServicePort::set_handler(std::uint16_t operation, Handler handler, 
   entries_.at(operation) = Entry{std::move(handler), dispatch};
 }
 
-void ProvidedServicePort::submit(PendingCall& call) noexcept {
+void ProvidedServicePort::set_accepting(bool accepting) noexcept {
+  accepting_.store(accepting, std::memory_order_seq_cst);
+  if (accepting) return;
+  // A submit that read `accepting` before the store may still be running a handler.
+  while (in_submit_.load(std::memory_order_seq_cst) != 0) std::this_thread::yield();
+}
+
+Status ProvidedServicePort::submit(PendingCall& call) noexcept {
   calls_.fetch_add(1, std::memory_order_relaxed);
-  if (!accepting_.load(std::memory_order_acquire)) {
-    rejected_.fetch_add(1, std::memory_order_relaxed);
-    call.complete(Status::not_active);
-    return;
-  }
-  if (call.operation >= entries_.size() || !entries_[call.operation].handler) {
-    rejected_.fetch_add(1, std::memory_order_relaxed);
-    call.complete(Status::unknown_operation);
-    return;
-  }
-  if (entries_[call.operation].dispatch == Dispatch::caller_thread) {
+  in_submit_.fetch_add(1, std::memory_order_seq_cst);
+  Status status = Status::ok;
+  if (!accepting_.load(std::memory_order_seq_cst)) {
+    status = Status::not_active;
+  } else if (call.operation >= entries_.size() || !entries_[call.operation].handler) {
+    status = Status::unknown_operation;
+  } else if (entries_[call.operation].dispatch == Dispatch::caller_thread) {
     run(call);
-    return;
+  } else {
+    PendingCall* pointer = &call;
+    const SampleMeta meta{sizeof(pointer), mono_now(), {}};
+    if (queue_.push(reinterpret_cast<const std::byte*>(&pointer), meta) != PushResult::stored) {
+      status = Status::queue_full;
+    }
   }
-  PendingCall* pointer = &call;
-  const SampleMeta meta{sizeof(pointer), mono_now(), {}};
-  if (queue_.push(reinterpret_cast<const std::byte*>(&pointer), meta) != PushResult::stored) {
+  if (status != Status::ok) {
     rejected_.fetch_add(1, std::memory_order_relaxed);
-    call.complete(Status::queue_full);
+    call.complete(status);
   }
+  in_submit_.fetch_sub(1, std::memory_order_seq_cst);
+  return status;
 }
 
 void ProvidedServicePort::run(PendingCall& call) noexcept {
@@ -85,6 +94,8 @@ void ProvidedServicePort::run(PendingCall& call) noexcept {
 }
 
 std::size_t ProvidedServicePort::serve_queued() noexcept {
+  // Calls queued just before the provider stopped are refused, not run after its stop.
+  if (!accepting_.load(std::memory_order_acquire)) return cancel_queued(Status::not_active);
   std::size_t served = 0;
   PendingCall* call = nullptr;
   SampleMeta meta{};
@@ -178,8 +189,7 @@ PendingCall* RequiredServicePort::acquire(std::string_view operation, const void
     call.reply_size = 0;
     call.wants_reply = wants_reply;
     call.status_ = Status::ok;
-    provider->dispatch(call);
-    status = Status::ok;
+    status = provider->dispatch(call);
     return &call;
   }
   counters_.too_many_calls.fetch_add(1, std::memory_order_relaxed);
@@ -227,7 +237,11 @@ Status RequiredServicePort::receive(CallHandle& handle, void* reply, std::uint32
   if (!handle.call) return handle.status == Status::ok ? Status::no_data : handle.status;
   PendingCall& call = *handle.call;
   std::unique_lock<std::mutex> lock(call.mutex_);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(timeout.count);
+  // Saturate, so that a huge timeout means "wait as long as it takes", not an overflow.
+  const auto now = std::chrono::steady_clock::now();
+  const auto room = std::chrono::steady_clock::time_point::max() - now;
+  const auto wait = std::chrono::nanoseconds(std::max<std::int64_t>(timeout.count, 0));
+  const auto deadline = wait >= room ? std::chrono::steady_clock::time_point::max() : now + wait;
   const bool done = call.done_.wait_until(lock, deadline, [&] {
     return call.state_.load(std::memory_order_acquire) == PendingCall::State::done;
   });
@@ -257,9 +271,12 @@ void RequiredServicePort::cancel(CallHandle& handle) noexcept {
 }
 
 Status RequiredServicePort::send(std::string_view operation, const void* request, std::uint32_t request_size) {
+  // A refused one-way call was completed (and its slot freed) before dispatch returned;
+  // only the returned status tells, the slot may already serve another call.
   Status status = Status::ok;
-  PendingCall* call = acquire(operation, request, request_size, false, status);
-  if (call) counters_.ok.fetch_add(1, std::memory_order_relaxed);
+  if (acquire(operation, request, request_size, false, status) != nullptr) {  // not dereferenced
+    (status == Status::ok ? counters_.ok : counters_.errors).fetch_add(1, std::memory_order_relaxed);
+  }
   return status;
 }
 

@@ -20,9 +20,10 @@ ReturnCode InprocInterceptor::command(LifecycleCommand command) {
 }
 
 Result<void> InprocInterceptor::start() {
-  for (ProvidedServicePort* port : provided_) port->set_accepting(true);
   ReturnCode code = command(LifecycleCommand::initialize);
   if (code != ReturnCode::ok) return make_error("onInitialize returned " + std::string(to_string(code)));
+  // Handlers may run from here on: the component is initialized.
+  for (ProvidedServicePort* port : provided_) port->set_accepting(true);
   if (initial_state_ == InitialState::active) {
     code = command(LifecycleCommand::activate);
     if (code != ReturnCode::ok) return make_error("onActivated returned " + std::string(to_string(code)));
@@ -31,9 +32,9 @@ Result<void> InprocInterceptor::start() {
 }
 
 void InprocInterceptor::stop() noexcept {
-  for (ProvidedServicePort* port : provided_) {
-    port->set_accepting(false);
-  }
+  // Refusing waits for handlers still running on callers' threads; queued calls are refused
+  // by the execution context from now on, so none runs after onDeactivated / onFinalize.
+  for (ProvidedServicePort* port : provided_) port->set_accepting(false);
   if (lifecycle_.state() == LifecycleState::active) command(LifecycleCommand::deactivate);
   if (lifecycle_.state() != LifecycleState::finalized) command(LifecycleCommand::finalize);
   for (ProvidedServicePort* port : provided_) port->cancel_queued(Status::not_active);

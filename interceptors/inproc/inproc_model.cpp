@@ -55,6 +55,15 @@ std::optional<Proxy> InprocModel::create_proxy(const Subcomponent& sub, ModelCon
     return std::nullopt;
   }
 
+  const bool periodic = profile.execution.type == ExecutionType::periodic ||
+                        profile.execution.type == ExecutionType::periodic_exclusive;
+  if (periodic && profile.execution.period_ms * 1e6 < static_cast<double>(ExecutionContext::kMinPeriod.count)) {
+    diagnostics.error(profile.execution.where, "/component_profile/execution_semantics/period",
+                      "period " + std::to_string(profile.execution.period_ms) +
+                          " ms is shorter than the shortest supported period (0.001 ms)");
+    return std::nullopt;
+  }
+
   std::unique_ptr<ComponentBase> instance = factory->create();
   std::map<std::string, std::string, std::less<>> properties;
   for (const PropertySpec& property : profile.properties) properties[property.name] = property.value;

@@ -1,6 +1,7 @@
 // The shared lifecycle and the periodic execution context.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <stdexcept>
 #include <string>
@@ -21,7 +22,7 @@ class Recorder final : public ComponentBase {
   ReturnCode onInitialize() override { return log("initialize"); }
   ReturnCode onActivated() override { return log("activated"); }
   ReturnCode onExecute() override {
-    execute_thread = std::this_thread::get_id();
+    execute_thread.store(std::this_thread::get_id());
     if (throw_in_execute) throw std::runtime_error("boom");
     return log("execute", fail_execute ? ReturnCode::error : ReturnCode::ok);
   }
@@ -39,7 +40,7 @@ class Recorder final : public ComponentBase {
   bool fail_execute = false;
   bool throw_in_execute = false;
   bool fail_reset = false;
-  std::thread::id execute_thread;
+  std::atomic<std::thread::id> execute_thread{};
 };
 
 using Hooks = std::vector<std::string>;

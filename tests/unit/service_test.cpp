@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <climits>
 #include <cstring>
 #include <thread>
 
@@ -35,6 +36,7 @@ class Services : public ::testing::Test {
     std::vector<OperationInfo> ops{{"add", pair, sum, false}, {"note", pair, nullptr, true}};
     provided = &server.add_port<ProvidedServicePort>("calc", "Calc", ops, 2);
     required = &client.add_port<RequiredServicePort>("calc", "Calc", ops, 3);
+    provided->set_accepting(true);  // as its component's start does
   }
 
   void provide(ProvidedServicePort::Dispatch dispatch) {
@@ -186,6 +188,29 @@ TEST_F(Services, WrongOperationSizeOrStoppedProvider) {
   EXPECT_EQ(required->query("add", &p, 3, &s, sizeof s, kLong), Status::bad_size);
   provided->set_accepting(false);
   EXPECT_EQ(required->query("add", &p, sizeof p, &s, sizeof s, kLong), Status::not_active);
+  EXPECT_EQ(required->send("note", &p, sizeof p), Status::not_active);  // refused, and said so
+}
+
+TEST_F(Services, CallsQueuedBeforeTheProviderStopsAreRefusedNotRun) {
+  provide(ProvidedServicePort::Dispatch::own_thread);
+  ASSERT_TRUE(required->connect(*provided));
+  Pair p{1, 1};
+  CallHandle h = required->request("add", &p, sizeof p);
+  ASSERT_TRUE(h);
+  provided->set_accepting(false);  // the provider stops with the call still queued
+  EXPECT_EQ(provided->serve_queued(), 1u);
+  Sum s{};
+  EXPECT_EQ(required->receive(h, &s, sizeof s, kLong), Status::not_active);
+}
+
+TEST_F(Services, AVeryLongTimeoutDoesNotOverflow) {
+  provide(ProvidedServicePort::Dispatch::own_thread);
+  ASSERT_TRUE(required->connect(*provided));
+  serve_in_background();
+  Pair p{2, 3};
+  Sum s{};
+  EXPECT_EQ(required->query("add", &p, sizeof p, &s, sizeof s, Nanos{INT64_MAX}), Status::ok);
+  EXPECT_EQ(s.value, 5);
 }
 
 TEST_F(Services, ConnectFailsWhenTheProviderLacksAnOperation) {

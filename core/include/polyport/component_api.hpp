@@ -114,13 +114,14 @@ class OutPort {
  public:
   OutPort(ComponentBase& owner, std::string name) {
     owner.declare_port(detail::make_declaration<T>(std::move(name), PortKind::data,
-                                                   PortDirection::output, reinterpret_cast<Port**>(&port_)));
+                                                   PortDirection::output, &port_));
   }
-  Status write(const T& value) noexcept { return port_->write(&value, sizeof(T)); }
-  DataOutPort& port() const noexcept { return *port_; }
+  Status write(const T& value) noexcept { return port().write(&value, sizeof(T)); }
+  // The engine binds a port of the declared kind and direction (checked at load time).
+  DataOutPort& port() const noexcept { return *static_cast<DataOutPort*>(port_); }
 
  private:
-  DataOutPort* port_ = nullptr;
+  Port* port_ = nullptr;
 };
 
 template <class T>
@@ -128,14 +129,14 @@ class InPort {
  public:
   InPort(ComponentBase& owner, std::string name) {
     owner.declare_port(detail::make_declaration<T>(std::move(name), PortKind::data,
-                                                   PortDirection::input, reinterpret_cast<Port**>(&port_)));
+                                                   PortDirection::input, &port_));
   }
   // ok: new data; old_data: the latest value again; no_data: `value` is left as it was.
-  Status read(T& value) noexcept { return port_->read(&value, sizeof(T)); }
-  DataInPort& port() const noexcept { return *port_; }
+  Status read(T& value) noexcept { return port().read(&value, sizeof(T)); }
+  DataInPort& port() const noexcept { return *static_cast<DataInPort*>(port_); }
 
  private:
-  DataInPort* port_ = nullptr;
+  Port* port_ = nullptr;
 };
 
 // Events: a small payload (an int32 code by default) queued for the receiver.
@@ -144,12 +145,12 @@ class EventOutPort {
  public:
   EventOutPort(ComponentBase& owner, std::string name) {
     owner.declare_port(detail::make_declaration<T>(std::move(name), PortKind::event,
-                                                   PortDirection::output, reinterpret_cast<Port**>(&port_)));
+                                                   PortDirection::output, &port_));
   }
-  Status raise(const T& event) noexcept { return port_->write(&event, sizeof(T)); }
+  Status raise(const T& event) noexcept { return static_cast<DataOutPort*>(port_)->write(&event, sizeof(T)); }
 
  private:
-  DataOutPort* port_ = nullptr;
+  Port* port_ = nullptr;
 };
 
 template <class T = std::int32_t>
@@ -157,16 +158,19 @@ class EventInPort {
  public:
   EventInPort(ComponentBase& owner, std::string name) {
     owner.declare_port(detail::make_declaration<T>(std::move(name), PortKind::event,
-                                                   PortDirection::input, reinterpret_cast<Port**>(&port_)));
+                                                   PortDirection::input, &port_));
   }
-  // ok with the next event, or no_data.
+  // ok with the next event, or no_data (`event` is then left as it was).
   Status take(T& event) noexcept {
-    Status status = port_->read(&event, sizeof(T));
-    return status == Status::old_data ? Status::no_data : status;
+    T next;
+    const Status status = static_cast<DataInPort*>(port_)->read(&next, sizeof(T));
+    if (status != Status::ok) return status == Status::old_data ? Status::no_data : status;
+    event = next;
+    return Status::ok;
   }
 
  private:
-  DataInPort* port_ = nullptr;
+  Port* port_ = nullptr;
 };
 
 // A provided service: operations with typed request and reply, registered by name.
@@ -176,7 +180,7 @@ class ProvidedService {
   ProvidedService(ComponentBase& owner, std::string name)
       : declaration_(&owner.declare_port(PortDeclaration{std::move(name), PortKind::service,
                                                          PortDirection::provided, 0, 1,
-                                                         reinterpret_cast<Port**>(&port_), {}})) {}
+                                                         &port_, {}})) {}
 
   // fn(const Req&, Rep&) -> ReturnCode
   template <class Req, class Rep, class F>
@@ -215,40 +219,40 @@ class ProvidedService {
          },
          dispatch});
   }
-  ProvidedServicePort& port() const noexcept { return *port_; }
+  ProvidedServicePort& port() const noexcept { return *static_cast<ProvidedServicePort*>(port_); }
 
  private:
   PortDeclaration* declaration_;  // stable: ComponentBase keeps declarations in a deque
-  ProvidedServicePort* port_ = nullptr;
+  Port* port_ = nullptr;
 };
 
 class RequiredService {
  public:
   RequiredService(ComponentBase& owner, std::string name) {
     owner.declare_port(PortDeclaration{std::move(name), PortKind::service, PortDirection::required,
-                                       0, 1, reinterpret_cast<Port**>(&port_), {}});
+                                       0, 1, &port_, {}});
   }
   template <class Req, class Rep>
   Status query(std::string_view operation, const Req& request, Rep& reply, Nanos timeout) {
-    return port_->query(operation, &request, sizeof(Req), &reply, sizeof(Rep), timeout);
+    return port().query(operation, &request, sizeof(Req), &reply, sizeof(Rep), timeout);
   }
   template <class Req>
   CallHandle request(std::string_view operation, const Req& request) {
-    return port_->request(operation, &request, sizeof(Req));
+    return port().request(operation, &request, sizeof(Req));
   }
   template <class Rep>
   Status receive(CallHandle& handle, Rep& reply, Nanos timeout) {
-    return port_->receive(handle, &reply, sizeof(Rep), timeout);
+    return port().receive(handle, &reply, sizeof(Rep), timeout);
   }
   template <class Req>
   Status send(std::string_view operation, const Req& request) {
-    return port_->send(operation, &request, sizeof(Req));
+    return port().send(operation, &request, sizeof(Req));
   }
-  bool connected() const noexcept { return port_->connected(); }
-  RequiredServicePort& port() const noexcept { return *port_; }
+  bool connected() const noexcept { return port().connected(); }
+  RequiredServicePort& port() const noexcept { return *static_cast<RequiredServicePort*>(port_); }
 
  private:
-  RequiredServicePort* port_ = nullptr;
+  Port* port_ = nullptr;
 };
 
 // The plugin's table of component classes.

@@ -37,6 +37,7 @@ struct ExecutionSettings {
 
 class ExecutionContext {
  public:
+  static constexpr Nanos kMinPeriod{1'000};  // 1 us
   explicit ExecutionContext(ExecutionSettings settings);
   ExecutionContext(const ExecutionContext&) = delete;
   ExecutionContext& operator=(const ExecutionContext&) = delete;
@@ -69,6 +70,8 @@ class ExecutionContext {
  private:
   void run();
   void apply_pending_command();
+  void wake() noexcept;
+  void sleep_until(MonoTime deadline);
 
   ExecutionSettings settings_;
   std::vector<Lifecycle*> members_;
@@ -76,6 +79,7 @@ class ExecutionContext {
   std::thread thread_;
   std::atomic<bool> running_{false};
   std::atomic<bool> stop_requested_{false};
+  std::atomic<std::uint32_t> wake_word_{0};  // a futex: bumped to wake the sleeping thread
 
   // One pending command at a time, handed over under the mutex (control path only).
   std::mutex command_mutex_;

@@ -61,7 +61,9 @@ class PendingCall {
 class ServiceTarget {
  public:
   virtual ~ServiceTarget() = default;
-  virtual void submit(PendingCall& call) noexcept = 0;
+  // Takes the call: completes it now or later. Returns ok when it was accepted (run or
+  // queued), else the reason it was refused (the call is then already completed with it).
+  virtual Status submit(PendingCall& call) noexcept = 0;
 };
 
 class ProvidedServicePort final : public Port, private ServiceTarget {
@@ -87,12 +89,15 @@ class ProvidedServicePort final : public Port, private ServiceTarget {
 
   // Called by a connected required port: hands the call to the target (the in-process
   // handlers unless set_target replaced them).
-  void dispatch(PendingCall& call) noexcept { target_->submit(call); }
+  Status dispatch(PendingCall& call) noexcept { return target_->submit(call); }
   // Runs queued own_thread calls; the provider's thread. Returns how many ran.
   std::size_t serve_queued() noexcept;
   // Completes every queued call with `status` (e.g. not_active when the provider stops).
   std::size_t cancel_queued(Status status) noexcept;
-  void set_accepting(bool accepting) noexcept { accepting_.store(accepting, std::memory_order_release); }
+  // Calls are accepted only between the provider's start and stop. Refusing waits until no
+  // call is still being submitted or run on another thread, so that after it returns no
+  // handler runs until calls are accepted again.
+  void set_accepting(bool accepting) noexcept;
 
   std::uint64_t calls() const noexcept { return calls_.load(std::memory_order_relaxed); }
   std::uint64_t rejected() const noexcept { return rejected_.load(std::memory_order_relaxed); }
@@ -102,7 +107,7 @@ class ProvidedServicePort final : public Port, private ServiceTarget {
     Handler handler;
     Dispatch dispatch = Dispatch::own_thread;
   };
-  void submit(PendingCall& call) noexcept override;  // in-process dispatch
+  Status submit(PendingCall& call) noexcept override;  // in-process dispatch
   void run(PendingCall& call) noexcept;
 
   std::string service_type_;
@@ -110,7 +115,8 @@ class ProvidedServicePort final : public Port, private ServiceTarget {
   std::vector<Entry> entries_;
   ServiceTarget* target_;
   BoundedQueue queue_;
-  std::atomic<bool> accepting_{true};
+  std::atomic<bool> accepting_{false};
+  std::atomic<std::uint32_t> in_submit_{0};  // submit() calls under way, on any thread
   std::atomic<std::uint64_t> calls_{0};
   std::atomic<std::uint64_t> rejected_{0};
 };
