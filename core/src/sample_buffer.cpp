@@ -44,6 +44,9 @@ void copy_bytes(std::byte* dst, const std::byte* src, std::uint32_t n) noexcept 
 
 // Busy-wait politely: a few spins first (the other side is mid-memcpy on another core),
 // then give the core away in case that side was preempted on ours.
+// How long a drop_oldest push waits for a reader mid-copy: 64 pauses, then 16 yields.
+constexpr unsigned kMaxWaitRounds = 80;
+
 void backoff(unsigned& round) noexcept {
   if (++round < 64) {
 #if defined(__x86_64__) || defined(__i386__)
@@ -228,15 +231,17 @@ PushResult BoundedQueue::push(const std::byte* data, const SampleMeta& meta) noe
   if (try_push(data, meta)) return PushResult::stored;
   if (when_full_ == WhenFull::drop_newest) return PushResult::dropped_newest;
   // drop_oldest: at most one sample is discarded per push, so that the push results
-  // account for every lost sample. If the reader holds the oldest cell mid-copy, we wait
-  // for that copy to finish (bounded by one memcpy of the reader) rather than drop more.
+  // account for every lost sample. If the reader holds the oldest cell mid-copy, we wait a
+  // few rounds for that copy to finish. A reader preempted mid-copy (e.g. by this writer at
+  // a real-time priority on the same CPU) would make that wait unbounded, so after
+  // kMaxWaitRounds the new sample is dropped instead: the writer never blocks.
   bool discarded = false;
-  unsigned round = 0;
-  for (;;) {
+  for (unsigned round = 0; round < kMaxWaitRounds;) {
     if (!discarded && try_discard_oldest()) discarded = true;
     if (try_push(data, meta)) return discarded ? PushResult::dropped_oldest : PushResult::stored;
     backoff(round);
   }
+  return PushResult::dropped_newest;
 }
 
 PopResult BoundedQueue::pop(std::byte* dst, std::uint32_t capacity, SampleMeta& meta) noexcept {
