@@ -1,9 +1,65 @@
-// Placeholder until the DBC type source lands: DBC messages are listed as plain structs.
+// DBC frame layouts for `polyportd types`: id, length, cycle time and each signal's bits.
 #include "type_printer.hpp"
+
+#include <cstdio>
+
+#include "polyport/dbc.hpp"
 
 namespace polyport::daemon {
 
-void describe_dbc(const DbcMessage&, nlohmann::json&) {}
-void print_dbc(const nlohmann::json&, std::ostream&) {}
+void describe_dbc(const DbcMessage& message, nlohmann::json& out) {
+  char id[16];
+  std::snprintf(id, sizeof id, "0x%X", message.frame_id);
+  nlohmann::json frame{{"id", id},
+                       {"extended", message.extended},
+                       {"length", message.length},
+                       {"fd", message.fd},
+                       {"cycle_time_ms", message.cycle_time_ms},
+                       {"transmitter", message.transmitter}};
+  for (const DbcSignal& s : message.signals) {
+    nlohmann::json j{{"name", s.name},
+                     {"start_bit", s.start_bit},
+                     {"length", s.length},
+                     {"byte_order", s.byte_order == DbcByteOrder::intel ? "intel" : "motorola"},
+                     {"signed", s.is_signed},
+                     {"factor", s.factor},
+                     {"offset", s.offset},
+                     {"unit", s.unit},
+                     {"lsb_bit", s.lsb_bit},
+                     {"msb_bit", s.msb_bit}};
+    if (s.float_kind != DbcFloatKind::none) j["float"] = s.float_kind == DbcFloatKind::float32 ? "float32" : "float64";
+    if (s.has_range()) j["range"] = {s.minimum, s.maximum};
+    if (s.mux_role == DbcMuxRole::multiplexer) j["multiplexer"] = true;
+    if (s.mux_role == DbcMuxRole::multiplexed) j["multiplexed_by"] = s.mux_value;
+    frame["signals"].push_back(std::move(j));
+  }
+  out["dbc"] = std::move(frame);
+}
+
+void print_dbc(const nlohmann::json& type, std::ostream& out) {
+  if (!type.contains("dbc")) return;
+  const auto& f = type["dbc"];
+  out << "  frame " << f["id"].get<std::string>() << (f["extended"].get<bool>() ? " (extended)" : " (standard)")
+      << ", " << f["length"] << " bytes" << (f["fd"].get<bool>() ? ", CAN FD" : "");
+  if (f["cycle_time_ms"].get<unsigned>() > 0) out << ", every " << f["cycle_time_ms"] << " ms";
+  if (!f["transmitter"].get<std::string>().empty()) out << ", from " << f["transmitter"].get<std::string>();
+  out << "\n";
+  if (!f.contains("signals")) return;
+  for (const auto& s : f["signals"]) {
+    char line[512];
+    std::snprintf(line, sizeof line, "    %-24s bits %2u|%-2u %-8s %-8s x%g %+g", s["name"].get<std::string>().c_str(),
+                  s["start_bit"].get<unsigned>(), s["length"].get<unsigned>(),
+                  s["byte_order"].get<std::string>().c_str(),
+                  s.contains("float") ? s["float"].get<std::string>().c_str()
+                                      : (s["signed"].get<bool>() ? "signed" : "unsigned"),
+                  s["factor"].get<double>(), s["offset"].get<double>());
+    out << line;
+    if (s.contains("range")) out << " [" << s["range"][0].get<double>() << ", " << s["range"][1].get<double>() << "]";
+    if (!s["unit"].get<std::string>().empty()) out << " " << s["unit"].get<std::string>();
+    if (s.contains("multiplexer")) out << "  multiplexer";
+    if (s.contains("multiplexed_by")) out << "  when multiplexer = " << s["multiplexed_by"];
+    out << "\n";
+  }
+}
 
 }  // namespace polyport::daemon

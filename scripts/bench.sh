@@ -6,8 +6,10 @@ cd "$(dirname "$0")/.."
 ./scripts/setup.sh
 ./scripts/build.sh -DPOLYPORT_BUILD_BENCHMARKS=ON
 mkdir -p benchmarks/results
-out="benchmarks/results/inproc_connection-$(date -u +%Y%m%dT%H%M%SZ).json"
-POLYPORT_GIT_REVISION="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)" \
-  ./build/bin/bench_inproc_connection --benchmark_out="$out" --benchmark_out_format=json \
-  --benchmark_min_time=0.05 "$@"
-echo "results: $out"
+stamp="$(date -u +%Y%m%dT%H%M%SZ)"
+export POLYPORT_GIT_REVISION="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
+for bench in inproc_connection conversion; do
+  out="benchmarks/results/${bench}-${stamp}.json"
+  ./build/bin/bench_${bench} --benchmark_out="$out" --benchmark_out_format=json --benchmark_min_time=0.05 "$@"
+  echo "results: $out"
+done

@@ -652,6 +652,7 @@ class IdlParser {
 
   struct Annotation {
     std::string name;
+    std::size_t at = 0;          // the token after the `@`, for messages
     std::size_t args_begin = 0;  // token range inside the parentheses
     std::size_t args_end = 0;
     bool has_args = false;
@@ -663,6 +664,7 @@ class IdlParser {
     while (is_punct(peek(), "@") && !is_word(peek(1), "annotation")) {
       next();
       Annotation annotation;
+      annotation.at = pos_;
       annotation.name = parse_annotation_name();
       if (is_punct(peek(), "(")) {
         next();
@@ -760,12 +762,12 @@ class IdlParser {
       skip_annotation_declaration();
       return;
     }
-    parse_annotations();
+    const std::vector<Annotation> annotations = parse_annotations();
     const Token& token = peek();
     if (is_word(token, "module")) {
       parse_module();
     } else if (is_word(token, "struct")) {
-      parse_struct();
+      parse_struct(annotations);
     } else if (is_word(token, "enum")) {
       parse_enum();
     } else if (is_word(token, "typedef")) {
@@ -801,7 +803,46 @@ class IdlParser {
     expect_definition_end("expected ';' after module definition");
   }
 
-  void parse_struct() {
+  // The XTypes extensibility a struct's annotations give: @final, @appendable, @mutable or
+  // @extensibility(FINAL | APPENDABLE | MUTABLE). Without one a struct is FINAL, as idlc
+  // (Cyclone DDS 0.10, its -x default) and fastddsgen 2.3 (Fast DDS 2.9, which has no
+  // XCDR2) treat it, although the XTypes spec says APPENDABLE: both ends of a bridge must
+  // agree, and these are the peers polyport meets. When several are given the last one
+  // counts (idlc refuses that; this parser has always accepted the annotations).
+  Extensibility extensibility_of(const std::vector<Annotation>& annotations) {
+    Extensibility extensibility = Extensibility::final_;
+    for (const Annotation& annotation : annotations) {
+      std::string_view name = annotation.name;
+      if (name.starts_with("::")) name.remove_prefix(2);
+      if (name == "final") {
+        extensibility = Extensibility::final_;
+      } else if (name == "appendable") {
+        extensibility = Extensibility::appendable;
+      } else if (name == "mutable") {
+        extensibility = Extensibility::mutable_;
+      } else if (name == "extensibility") {
+        const Token& argument = tokens_[std::min(annotation.args_begin, tokens_.size() - 1)];
+        const bool one_word = annotation.has_args &&
+                              annotation.args_end == annotation.args_begin + 1 &&
+                              argument.kind == TokenKind::identifier;
+        if (one_word && argument.text == "FINAL") {
+          extensibility = Extensibility::final_;
+        } else if (one_word && argument.text == "APPENDABLE") {
+          extensibility = Extensibility::appendable;
+        } else if (one_word && argument.text == "MUTABLE") {
+          extensibility = Extensibility::mutable_;
+        } else {
+          const bool has_argument =
+              annotation.has_args && annotation.args_end > annotation.args_begin;
+          error(has_argument ? argument : tokens_[annotation.at],
+                "@extensibility needs FINAL, APPENDABLE or MUTABLE");
+        }
+      }
+    }
+    return extensibility;
+  }
+
+  void parse_struct(const std::vector<Annotation>& annotations) {
     next();  // struct
     const Token& name_token = peek();
     const std::string name = expect_name("expected struct name");
@@ -823,6 +864,8 @@ class IdlParser {
     type.kind = TypeKind::structure;
     type.name = qualified;
     type.where = location(name_token);
+    type.origin = TypeOrigin::idl;
+    type.extensibility = extensibility_of(annotations);
     bool ok = true;
     bool closed = false;
     while (true) {
@@ -901,6 +944,7 @@ class IdlParser {
     Type type;
     type.kind = TypeKind::enumeration;
     type.name = qualified;
+    type.origin = TypeOrigin::idl;
     type.size = 4;
     type.align = 4;
     type.where = location(name_token);
@@ -997,6 +1041,7 @@ class IdlParser {
       Type& type = registry_.make_type();
       type.kind = TypeKind::alias;
       type.name = qualified;
+      type.origin = TypeOrigin::idl;
       type.size = aliased->size;
       type.align = aliased->align;
       type.element = aliased;

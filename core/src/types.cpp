@@ -368,6 +368,24 @@ const Type* TypeRegistry::find(std::string_view name) const noexcept {
       return it == by_name_.end() ? nullptr : it->second;
     }
   }
+  // LCM spells qualified names with dots ("a.b.t" is registered as "a::b::t").
+  if (name.find('.') != std::string_view::npos && name.find(':') == std::string_view::npos) {
+    try {
+      std::string qualified;
+      qualified.reserve(name.size() * 2);
+      for (char c : name) {
+        if (c == '.') {
+          qualified += "::";
+        } else {
+          qualified += c;
+        }
+      }
+      auto it = by_name_.find(qualified);
+      return it == by_name_.end() ? nullptr : it->second;
+    } catch (...) {  // out of memory: find() is noexcept and "not found" is a safe answer
+      return nullptr;
+    }
+  }
   return nullptr;
 }
 

@@ -5,11 +5,15 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <optional>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "polyport/diagnostics.hpp"
@@ -435,9 +439,11 @@ TEST_F(ProfileLoader, BadConnections) {
       "invalid/bad_connections.xml:52:7: /application_profile/port_connections/port_connection[6]/"
       "target: Control.reference is an output port; a data connection's target must be an input "
       "port",
+      // Different types map by name when they can; these cannot, and the message says why.
       "invalid/bad_connections.xml:54:5: /application_profile/port_connections/port_connection[7]: "
       "type mismatch: Joystick.joystick is 'wheelchair::Joystick' but Motor.reference is "
-      "'::wheelchair::Reference'",
+      "'::wheelchair::Reference': target fields 'left', 'right' of 'wheelchair::Reference' have no "
+      "source in 'wheelchair::Joystick' (source fields: x, y)",
       "invalid/bad_connections.xml:65:7: /application_profile/port_connections/port_connection[9]/"
       "source: Motor.motor is a provided port; a service connection's source must be a required "
       "port",
@@ -482,6 +488,192 @@ TEST_F(ProfileLoader, EarlierErrorsDoNotFailALaterLoad) {
   diagnostics_.error({"other.xml", 1, 1}, "", "an earlier problem");
   EXPECT_TRUE(load("valid_app.xml").has_value());
   EXPECT_EQ(diagnostics_.error_count(), 1U);
+}
+
+// Mappings (tests/data/profiles/mapping): the loader reads <mapping>, compiles a program for
+// every data or event connection whose ends differ in type (or that has a <mapping>), and
+// the programs it compiled run here on hand-built flat samples.
+class ProfileMappings : public ProfileLoader {
+ protected:
+  // The offset of a field in a registered type ("a.x"; no indices).
+  std::uint32_t at(std::string_view type_name, std::string_view path) {
+    const Type* type = types_.find(type_name);
+    EXPECT_NE(type, nullptr) << type_name;
+    std::uint32_t offset = 0;
+    while (type != nullptr && !path.empty()) {
+      const std::size_t dot = path.find('.');
+      const Field* field = type->find_field(path.substr(0, dot));
+      EXPECT_NE(field, nullptr) << path;
+      if (field == nullptr) return 0;
+      offset += field->offset;
+      type = &field->type->resolved();
+      path = dot == std::string_view::npos ? std::string_view() : path.substr(dot + 1);
+    }
+    return offset;
+  }
+
+  template <class T>
+  static void put(std::vector<std::byte>& sample, std::uint32_t offset, T value) {
+    std::memcpy(sample.data() + offset, &value, sizeof value);
+  }
+  template <class T>
+  static T get(const std::vector<std::byte>& sample, std::uint32_t offset) {
+    T value;
+    std::memcpy(&value, sample.data() + offset, sizeof value);
+    return value;
+  }
+
+  // Runs a connection's program on `source` into a target of `capacity` bytes.
+  static std::vector<std::byte> run(const ConnectionSpec& connection, const std::vector<std::byte>& source,
+                                    std::uint32_t capacity) {
+    std::vector<std::byte> target(capacity, std::byte{0xAB});
+    std::uint32_t size = 0;
+    EXPECT_TRUE(connection.program->run(source.data(), static_cast<std::uint32_t>(source.size()),
+                                        target.data(), capacity, size));
+    return target;
+  }
+};
+
+TEST_F(ProfileMappings, CompilesAProgramWhereTheTypesDifferOrAMappingIsGiven) {
+  const auto app = load("mapping/valid_app.xml");
+  ASSERT_TRUE(app.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_TRUE(diagnostics_.all().empty()) << ::testing::PrintToString(messages());
+  ASSERT_EQ(app->connections.size(), 7U);
+
+  // Sensor.odom -> Planner.state: units, a rename, a constant; the rest by name.
+  const ConnectionSpec& state = app->connections[0];
+  ASSERT_TRUE(state.mapping.has_value());
+  EXPECT_TRUE(state.mapping->by_name);
+  ASSERT_EQ(state.mapping->rules.size(), 4U);
+  const MappingRule& speed = state.mapping->rules[0];
+  EXPECT_EQ(speed.kind, MappingRule::Kind::copy);
+  EXPECT_EQ(speed.target, "speed_mps");
+  EXPECT_EQ(speed.source, "speed_kmh");
+  EXPECT_EQ(speed.from_unit, "km/h");
+  EXPECT_EQ(speed.to_unit, "m/s");
+  EXPECT_EQ(speed.where.line, 16U);
+  EXPECT_EQ(speed.where.column, 9U);
+  EXPECT_EQ(speed.element_path,
+            "/application_profile/port_connections/port_connection[1]/mapping/field[1]");
+  EXPECT_EQ(state.mapping->rules[3].kind, MappingRule::Kind::constant);
+  EXPECT_EQ(state.mapping->rules[3].value, "1.5");
+  ASSERT_NE(state.program, nullptr);
+  std::vector<std::byte> odometry(types_.find("nav::Odometry")->size, std::byte{0});
+  put(odometry, at("nav::Odometry", "speed_kmh"), 36.0);
+  put(odometry, at("nav::Odometry", "heading_deg"), 90.0);
+  put(odometry, at("nav::Odometry", "position") + 8, -4.0);
+  put(odometry, at("nav::Odometry", "mode"), std::int32_t{2});  // BRAKE
+  std::memcpy(odometry.data() + at("nav::Odometry", "frame"), "map", 3);
+  put(odometry, at("nav::Odometry", "seq"), std::int32_t{-7});
+  const std::uint32_t state_size = types_.find("nav::State")->size;
+  const auto mapped = run(state, odometry, state_size + 16);
+  EXPECT_DOUBLE_EQ(get<double>(mapped, at("nav::State", "speed_mps")), 10.0);
+  EXPECT_DOUBLE_EQ(get<double>(mapped, at("nav::State", "heading_rad")), 1.5707963267948966);
+  EXPECT_EQ(get<double>(mapped, at("nav::State", "xy") + 8), -4.0);
+  EXPECT_EQ(get<std::int32_t>(mapped, at("nav::State", "mode")), 0);  // BRAKE in nav::Gear
+  const auto frame = get<FlatSpan>(mapped, at("nav::State", "frame"));
+  EXPECT_EQ(frame.offset, state_size);  // the tail starts after the fixed part
+  EXPECT_EQ(std::string(reinterpret_cast<const char*>(mapped.data() + frame.offset), frame.count), "map");
+  EXPECT_EQ(get<std::int64_t>(mapped, at("nav::State", "seq")), -7);
+  EXPECT_EQ(get<double>(mapped, at("nav::State", "gain")), 1.5);
+
+  // Sensor.imu -> Planner.accel: an affine transform into a struct; seq by name.
+  const ConnectionSpec& accel = app->connections[1];
+  ASSERT_TRUE(accel.mapping.has_value());
+  const MappingRule& transform = accel.mapping->rules.at(0);
+  EXPECT_EQ(transform.kind, MappingRule::Kind::affine);
+  EXPECT_EQ(transform.matrix_rows, 3U);
+  EXPECT_EQ(transform.matrix_cols, 3U);
+  EXPECT_EQ(transform.matrix, (std::vector<double>{0, 1, 0, 1, 0, 0, 0, 0, -1}));
+  EXPECT_EQ(transform.translation, (std::vector<double>{0, 0, 9.81}));
+  ASSERT_NE(accel.program, nullptr);
+  std::vector<std::byte> imu(types_.find("nav::Imu")->size, std::byte{0});
+  put(imu, at("nav::Imu", "accel"), 1.0);
+  put(imu, at("nav::Imu", "accel") + 8, 2.0);
+  put(imu, at("nav::Imu", "accel") + 16, 3.0);
+  put(imu, at("nav::Imu", "seq"), std::int32_t{5});
+  const auto accelerations = run(accel, imu, types_.find("nav::Accel")->size);
+  EXPECT_EQ(get<double>(accelerations, at("nav::Accel", "a.x")), 2.0);
+  EXPECT_EQ(get<double>(accelerations, at("nav::Accel", "a.y")), 1.0);
+  EXPECT_DOUBLE_EQ(get<double>(accelerations, at("nav::Accel", "a.z")), 6.81);
+  EXPECT_EQ(get<std::int32_t>(accelerations, at("nav::Accel", "seq")), 5);
+
+  // Different types, no <mapping>: by name.
+  EXPECT_FALSE(app->connections[2].mapping.has_value());
+  EXPECT_NE(app->connections[2].program, nullptr);
+  // The same type and no <mapping>: nothing to do.
+  EXPECT_EQ(app->connections[3].program, nullptr);
+  // The same type with a <mapping>: it applies.
+  ASSERT_NE(app->connections[4].program, nullptr);
+  std::vector<std::byte> fahrenheit(8);
+  put(fahrenheit, 0, 212.0);
+  EXPECT_DOUBLE_EQ(get<double>(run(app->connections[4], fahrenheit, 8), 0), 100.0);
+  // allow_narrowing="1", and numbers with an exponent.
+  const MappingRule& narrowing = app->connections[5].mapping->rules.at(0);
+  EXPECT_TRUE(narrowing.allow_narrowing);
+  EXPECT_EQ(narrowing.scale, 0.5);
+  EXPECT_EQ(narrowing.offset, -0.1);
+  ASSERT_NE(app->connections[5].program, nullptr);
+  EXPECT_EQ(get<float>(run(app->connections[5], fahrenheit, 4), 0), 105.9f);
+  // An event without a payload has nothing to map.
+  EXPECT_EQ(app->connections[6].program, nullptr);
+}
+
+TEST_F(ProfileMappings, EveryProblemAtItsPlace) {
+  EXPECT_FALSE(load("mapping/invalid_app.xml").has_value());
+  const std::string file = "mapping/invalid_app.xml:";
+  const std::string connection = "/application_profile/port_connections/port_connection";
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      // Reading: what a <mapping> says, before any type is looked at.
+      file + "26:25: " + connection + "[3]/mapping/@by_name: bad by_name 'maybe' (accepted: true, "
+      "false, 1, 0)",
+      file + "39:42: " + connection + "[3]/mapping/field[13]/@units: warning: unknown attribute 'units'",
+      file + "40:9: " + connection + "[3]/mapping/fields: warning: unknown element <fields>",
+      file + "27:9: " + connection + "[3]/mapping/field[1]: missing attribute 'target'",
+      file + "28:49: " + connection + "[3]/mapping/field[2]/@value: source and value exclude each other",
+      file + "29:9: " + connection + "[3]/mapping/field[3]: missing attribute 'source' or 'value'",
+      file + "30:49: " + connection + "[3]/mapping/field[4]/@scale: bad scale 'fast': expected a number",
+      file + "31:53: " + connection + "[3]/mapping/field[5]/@transform: bad transform 'rotate' "
+      "(accepted: linear, affine)",
+      file + "32:50: " + connection + "[3]/mapping/field[6]/@matrix: matrix needs "
+      "transform=\"linear\" or \"affine\"",
+      file + "33:69: " + connection + "[3]/mapping/field[7]/@matrix: bad matrix: row 2 has 2 entries "
+      "but row 1 has 3",
+      file + "34:69: " + connection + "[3]/mapping/field[8]/@matrix: bad matrix: 'x' is not a number",
+      file + "34:9: " + connection + "[3]/mapping/field[8]: missing attribute 'translation' (needed by "
+      "transform=\"affine\")",
+      file + "35:69: " + connection + "[3]/mapping/field[9]/@matrix: bad matrix: an entry is missing",
+      file + "35:88: " + connection + "[3]/mapping/field[9]/@translation: a translation needs "
+      "transform=\"affine\"",
+      file + "36:46: " + connection + "[3]/mapping/field[10]/@scale: scale does not apply to a "
+      "constant (value)",
+      file + "37:84: " + connection + "[3]/mapping/field[11]/@offset: offset does not apply to a "
+      "transform (fold it into the matrix)",
+      file + "38:59: " + connection + "[3]/mapping/field[12]/@allow_narrowing: bad allow_narrowing "
+      "'yes' (accepted: true, false, 1, 0)",
+      file + "59:7: " + connection + "[6]/mapping[2]: duplicate <mapping>: already given at line 56",
+      // Connections: without a <mapping>, by name, which does not narrow.
+      file + "10:5: " + connection + "[1]: type mismatch: Sensor.wide is 'nav::Wide' but "
+      "Planner.narrow is 'nav::Narrow': narrowing source 'value' ('double') to target 'value' "
+      "('float') needs allow_narrowing=\"true\"",
+      // One error at the connection that says why, then each faulty rule at its <field>.
+      file + "14:5: " + connection + "[2]: type mismatch: Sensor.odom is 'nav::Odometry' but "
+      "Planner.state is 'nav::State': target field 'gain' of 'nav::State' has no source in "
+      "'nav::Odometry' (source fields: speed_kmh, heading_deg, position, mode, frame, seq); 2 rules "
+      "of the <mapping> are at fault (reported at their <field>s)",
+      file + "18:9: " + connection + "[2]/mapping/field[1]: unknown unit 'furlong' (known: rad, deg, "
+      "m, cm, mm, km, s, ms, us, ns, m/s, km/h, mph, rad/s, deg/s, rpm, kg, g, K, degC, degF, Pa, "
+      "kPa, bar, psi)",
+      file + "19:9: " + connection + "[2]/mapping/field[2]: source 'heading' not found in "
+      "'nav::Odometry' (fields: speed_kmh, heading_deg, position, mode, frame, seq)",
+      // The unreadable <mapping> of connection 3 is not compiled: no type mismatch there.
+      file + "46:7: " + connection + "[4]/mapping: a mapping applies only to data and event "
+      "connections",
+      file + "51:7: " + connection + "[5]/mapping: a mapping needs a data type on both ports",
+      // The same type on both ends: only the rule is at fault.
+      file + "57:9: " + connection + "[6]/mapping[1]/field: cannot convert 'degC' (temperature) to "
+      "'m' (length)",
+  }));
 }
 
 TEST(ProfileNames, ToString) {
@@ -641,6 +833,99 @@ TEST_F(ProfileAliases, ColumnsCountCharactersAndSkipTheByteOrderMark) {
   EXPECT_EQ(profile->where.column, 1U);
 }
 
+// The number, list and matrix spellings of a <field>, which the XSD's Number, NumberList and
+// Matrix types accept too.
+class ProfileMappingSyntax : public ProfileAliases {
+ protected:
+  // One connection V -> W with `fields` inside its <mapping>.
+  std::optional<ConnectionSpec> load_mapping(const std::string& fields, const std::string& attributes = "") {
+    write(dir_ / "types.idl", "struct V { double p[2]; double y; };\nstruct W { double a[2]; double y; };\n");
+    write(dir_ / "Comp.xml",
+          "<component_profile>\n  <name>Comp</name>\n  <model>lcm</model>\n"
+          "  <types><file>types.idl</file></types>\n  <ports>\n"
+          "    <data_port><name>out</name><data_type>V</data_type><usage>output</usage></data_port>\n"
+          "    <data_port><name>in</name><data_type>W</data_type><usage>input</usage></data_port>\n"
+          "  </ports>\n</component_profile>\n");
+    write(dir_ / "app.xml",
+          "<application_profile>\n  <name>app</name>\n  <subcomponents>\n    <subcomponent>\n"
+          "      <name>C</name>\n      <reference>Comp.xml</reference>\n    </subcomponent>\n"
+          "  </subcomponents>\n  <port_connections>\n    <port_connection port_type=\"data\">\n"
+          "      <source component_name=\"C\" port_name=\"out\"/>\n"
+          "      <target component_name=\"C\" port_name=\"in\"/>\n"
+          "      <mapping" + attributes + ">" + fields + "</mapping>\n"
+          "    </port_connection>\n  </port_connections>\n</application_profile>\n");
+    TypeRegistry types;
+    diagnostics_ = Diagnostics();
+    const auto app = load_application_profile(dir_ / "app.xml", types, LoadOptions{}, diagnostics_);
+    if (!app) return std::nullopt;
+    return app->connections.at(0);
+  }
+};
+
+TEST_F(ProfileMappingSyntax, MatrixSpellings) {
+  const std::vector<std::pair<std::string, std::vector<double>>> cases = {
+      {"1 0; 0 1", {1, 0, 0, 1}},
+      {" 1,0 ;0 , 1 ", {1, 0, 0, 1}},
+      {"+1.5 -.5; 2. 1e-3", {1.5, -0.5, 2, 0.001}},
+      {"1\t0;\n0\t1E+1", {1, 0, 0, 10}},
+  };
+  for (const auto& [text, expected] : cases) {
+    SCOPED_TRACE(text);
+    const auto connection =
+        load_mapping("<field target=\"a\" source=\"p\" transform=\"linear\" matrix=\"" + text + "\"/>");
+    ASSERT_TRUE(connection.has_value()) << ::testing::PrintToString(messages());
+    const MappingRule& rule = connection->mapping->rules.at(0);
+    EXPECT_EQ(rule.matrix, expected);
+    EXPECT_EQ(rule.matrix_rows, 2U);
+    EXPECT_EQ(rule.matrix_cols, 2U);
+    EXPECT_NE(connection->program, nullptr);
+  }
+}
+
+TEST_F(ProfileMappingSyntax, BadNumbers) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"matrix=\"1 0; 0 1;\"", "bad matrix: an entry is missing"},
+      {"matrix=\"1,,0; 0 1\"", "bad matrix: an entry is missing"},
+      {"matrix=\"1 0; 0 inf\"", "bad matrix: 'inf' is not a number"},
+      {"matrix=\"0x10 0; 0 1\"", "bad matrix: '0x10' is not a number"},
+      {"matrix=\"1 0; 0 1e\"", "bad matrix: '1e' is not a number"},
+      {"matrix=\"1e999 0; 0 1\"", "bad matrix: '1e999' is not a number"},
+      {"matrix=\"1;2;3;4;5;6;7\"", "bad matrix: 7x1 (at most 6 rows and 6 columns)"},
+      {"matrix=\"1 0; 0 1\" translation=\"1 nan\"", "bad translation: 'nan' is not a number"},
+  };
+  for (const auto& [attributes, expected] : cases) {
+    SCOPED_TRACE(attributes);
+    const std::string kind = attributes.find("translation") != std::string::npos ? "affine" : "linear";
+    EXPECT_FALSE(load_mapping("<field target=\"a\" source=\"p\" transform=\"" + kind + "\" " + attributes + "/>"));
+    ASSERT_EQ(diagnostics_.all().size(), 1U) << ::testing::PrintToString(messages());
+    EXPECT_EQ(diagnostics_.all()[0].message, expected);
+  }
+  EXPECT_FALSE(load_mapping("<field target=\"y\" source=\"y\" scale=\"1e\"/>"));
+  ASSERT_EQ(diagnostics_.all().size(), 1U) << ::testing::PrintToString(messages());
+  EXPECT_EQ(diagnostics_.all()[0].message, "bad scale '1e': expected a number");
+}
+
+TEST_F(ProfileMappingSyntax, ByNameFalseLeavesTheRestZero) {
+  const auto connection = load_mapping("<field target=\"y\" value=\"-3\"/>");
+  ASSERT_FALSE(connection.has_value());  // `a` has no source in V
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      "app.xml:10:5: /application_profile/port_connections/port_connection: type mismatch: C.out is "
+      "'V' but C.in is 'W': target field 'a' of 'W' has no source in 'V' (source fields: p, y)",
+  }));
+  const auto zeroed = load_mapping("<field target=\"y\" value=\"-3\"/>", " by_name=\"false\"");
+  ASSERT_TRUE(zeroed.has_value()) << ::testing::PrintToString(messages());
+  ASSERT_NE(zeroed->program, nullptr);
+  const double source[3] = {1.0, 2.0, 3.0};
+  double target[3] = {9.0, 9.0, 9.0};
+  std::uint32_t size = 0;
+  ASSERT_TRUE(zeroed->program->run(reinterpret_cast<const std::byte*>(source), sizeof source,
+                                   reinterpret_cast<std::byte*>(target), sizeof target, size));
+  EXPECT_EQ(size, sizeof target);
+  EXPECT_EQ(target[0], 0.0);
+  EXPECT_EQ(target[1], 0.0);
+  EXPECT_EQ(target[2], -3.0);
+}
+
 TEST(ProfileSchema, FixturesAgainstTheXsd) {
   if (std::system("xmllint --version > /dev/null 2>&1") != 0) {
     GTEST_SKIP() << "xmllint not installed (libxml2-utils)";
@@ -652,13 +937,15 @@ TEST(ProfileSchema, FixturesAgainstTheXsd) {
   };
   const fs::path dir = profiles_dir();
   for (const char* valid : {"valid_app.xml", "components/Joystick.xml", "components/Control.xml",
-                            "components/Motor.xml", "components/OprosAliases.xml"}) {
+                            "components/Motor.xml", "components/OprosAliases.xml",
+                            "mapping/valid_app.xml", "mapping/components/Sensor.xml",
+                            "mapping/components/Planner.xml"}) {
     EXPECT_TRUE(validates(dir / valid)) << valid;
   }
   // The schema is strict where the loader only warns, and checks what XML Schema can express.
   for (const char* invalid : {"aliases_app.xml", "invalid/bad_app_fields.xml",
                               "invalid/bad_connections.xml", "invalid/components/BadPorts.xml",
-                              "invalid/components/BadExecution.xml"}) {
+                              "invalid/components/BadExecution.xml", "mapping/invalid_app.xml"}) {
     EXPECT_FALSE(validates(dir / invalid)) << invalid;
   }
 }
