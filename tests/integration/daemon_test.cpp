@@ -201,6 +201,24 @@ TEST(Daemon, SigtermStopsGracefullyAndDurationStopsByItself) {
   EXPECT_EQ(wait_exit(q), 0) << slurp(q.err);
 }
 
+TEST(Daemon, TypesPrintsLayoutsFingerprintsAndFrames) {
+  Process p = spawn({"types", POLYPORT_SOURCE_DIR "/benchmarks/types/bench.idl", POLYPORT_SOURCE_DIR "/benchmarks/types/bench.lcm",
+                     POLYPORT_SOURCE_DIR "/benchmarks/types/bench.dbc"},
+                    "types");
+  EXPECT_EQ(wait_exit(p), 0) << slurp(p.err);
+  const std::string out = slurp(scratch("types.stdout"));
+  EXPECT_NE(out.find("struct bench::Wheel64  (idl, "), std::string::npos) << out;
+  EXPECT_NE(out.find("struct bench::wheel64_t  (lcm, "), std::string::npos) << out;
+  EXPECT_NE(out.find("  lcm fingerprint 0x"), std::string::npos) << out;
+  EXPECT_NE(out.find("  frame 0x123 (standard), 8 bytes, from DRIVE"), std::string::npos) << out;
+  EXPECT_NE(out.find("heading_deg              bits 55|8  motorola signed   x2 +0 [-256, 254] deg"), std::string::npos) << out;
+  EXPECT_NE(out.find("      56  double                       battery_v"), std::string::npos) << out;
+
+  Process broken = spawn({"types", POLYPORT_TEST_DATA "/daemon/broken_app.xml"}, "types-broken");
+  EXPECT_EQ(wait_exit(broken), 3);
+  EXPECT_NE(slurp(broken.err).find("unknown kind of type file"), std::string::npos);
+}
+
 TEST(Daemon, UsageErrorsAndVersion) {
   Process bad = spawn({"run"}, "usage");
   EXPECT_EQ(wait_exit(bad), 2);

@@ -152,3 +152,75 @@ TEST_F(Conversion, FlatSourceIntoAnEncodedTarget) {
 
 }  // namespace
 }  // namespace polyport
+
+namespace polyport {
+namespace {
+
+// Each real wire format: a good sample is delivered, a malformed one is counted and
+// dropped, and the connection goes on delivering.
+class MalformedSamples : public ::testing::TestWithParam<WireFormat> {
+ protected:
+  void SetUp() override {
+    Diagnostics d;
+    ASSERT_TRUE(types.add_idl_text("module m { struct Pair { double a; double b; }; };", "m.idl", d));
+    ASSERT_TRUE(types.add_lcm_text("package m; struct pair_t { double a; double b; }", "m.lcm", d));
+    ASSERT_TRUE(types.add_dbc_text("VERSION \"\"\n\nNS_ :\n\nBS_:\n\nBU_: N\n\n"
+                                   "BO_ 16 PairFrame: 2 N\n SG_ a : 0|8@1+ (1,0) [0|255] \"\" N\n"
+                                   " SG_ b : 8|8@1+ (1,0) [0|255] \"\" N\n",
+                                   "m.dbc", d));
+    for (const auto& p : d.all()) ADD_FAILURE() << p.to_string();
+  }
+  const Type& type_for(WireFormat format) {
+    switch (format) {
+      case WireFormat::lcm: return *types.find("m::pair_t");
+      case WireFormat::dbc: return *types.find("m::PairFrame");
+      default: return *types.find("m::Pair");
+    }
+  }
+  TypeRegistry types;
+};
+
+TEST_P(MalformedSamples, AreCountedAndDroppedAndTheConnectionGoesOn) {
+  const WireFormat format = GetParam();
+  const Type& type = type_for(format);
+  auto codec = make_codec(format, type);
+  ASSERT_TRUE(codec) << codec.error().message;
+  Component src{"S", "foreign"};
+  Component dst{"D", "inproc"};
+  auto& out = src.add_port<DataOutPort>("out", PortKind::data, &type, 256);
+  auto& in = dst.add_port<DataInPort>("in", PortKind::data, &type, type.size, QueuePolicy::buffer, 4);
+  out.set_wire_format(format, codec.value().get());
+  Connection c(out, in, QueuePolicy::buffer, 4);
+  out.connections().add(c);
+  in.connections().add(c);
+  EXPECT_EQ(c.conversion(), std::string(to_string(format)) + " -> flat");
+
+  const double values[2] = {7, 9};
+  std::byte wire[256];
+  const CodecResult good = codec.value()->encode(reinterpret_cast<const std::byte*>(values), sizeof values, wire, sizeof wire);
+  ASSERT_TRUE(good.ok());
+  std::byte bad[256];
+  std::memcpy(bad, wire, good.size);
+  std::uint32_t bad_size = good.size;
+  if (format == WireFormat::lcm) bad[0] ^= std::byte{0xFF};  // another type's fingerprint
+  else bad_size = good.size - 1;                               // truncated CDR, short CAN frame
+
+  out.write(wire, good.size);
+  out.write(bad, bad_size);
+  out.write(wire, good.size);
+  double got[2] = {0, 0};
+  EXPECT_EQ(in.read(got, sizeof got), Status::ok);
+  EXPECT_EQ(got[0], 7.0);
+  EXPECT_EQ(got[1], 9.0);
+  EXPECT_EQ(in.read(got, sizeof got), Status::ok);
+  EXPECT_EQ(in.read(got, sizeof got), Status::no_data);
+  EXPECT_EQ(c.counters().dropped_decode_error.load(), 1u);
+  EXPECT_EQ(c.counters().delivered.load(), 2u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Formats, MalformedSamples,
+                         ::testing::Values(WireFormat::xcdr1, WireFormat::xcdr2, WireFormat::lcm, WireFormat::dbc),
+                         [](const auto& param_info) { return std::string(to_string(param_info.param)); });
+
+}  // namespace
+}  // namespace polyport

@@ -387,7 +387,6 @@ StressOutcome run_stress(std::uint32_t depth, BoundedQueue::WhenFull policy, boo
     if (out.last_pushed) {
       EXPECT_EQ(out.last, kCount - 1);  // nothing comes after the last to push it out
     }
-    EXPECT_LT(out.gave_up, out.dropped / 2 + 1);  // giving up is the exception, not the rule
   }
   return out;
 }
