@@ -701,7 +701,7 @@ TEST_P(CdrCross, DecodesTheVendorsBigEndianBytes) {
 
 TEST_P(CdrCross, VendorDecodesPolyportsBytes) {
   if (!vendor().reads(GetParam().type))
-    GTEST_SKIP() << vendor().name() << " cannot read this type back";
+    GTEST_SKIP() << vendor().name() << " cannot read this type back (fastddsgen 2.3.0 generates no code to deserialize arrays of strings; encoding is still compared)";
   const Bytes ours = polyport_encode();
   std::visit(
       [&](const auto& want) {
@@ -715,7 +715,7 @@ TEST_P(CdrCross, VendorDecodesPolyportsBytes) {
 // The test's own plumbing: what the vendor writes, it reads back unchanged.
 TEST_P(CdrCross, VendorRoundTrip) {
   if (!vendor().reads(GetParam().type))
-    GTEST_SKIP() << vendor().name() << " cannot read this type back";
+    GTEST_SKIP() << vendor().name() << " cannot read this type back (fastddsgen 2.3.0 generates no code to deserialize arrays of strings; encoding is still compared)";
   const std::optional<Bytes> theirs = vendor_encode(ByteOrder::native);
   ASSERT_TRUE(theirs.has_value());
   std::visit(
