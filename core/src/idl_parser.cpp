@@ -1451,23 +1451,7 @@ bool TypeRegistry::add_idl_text(std::string_view text, const std::string& file_n
 }
 
 bool TypeRegistry::add_idl_file(const std::filesystem::path& file, Diagnostics& diagnostics) {
-  const auto cannot_open = [&] {
-    diagnostics.error(SourceLocation{file.string(), 0, 0}, std::string(), "cannot open file");
-    return false;
-  };
-  std::error_code error;
-  const std::filesystem::path canonical = std::filesystem::canonical(file, error);
-  if (error || !std::filesystem::is_regular_file(canonical, error)) return cannot_open();
-  if (std::find(loaded_files_.begin(), loaded_files_.end(), canonical) != loaded_files_.end()) {
-    return true;
-  }
-  std::ifstream in(canonical, std::ios::binary);
-  if (!in) return cannot_open();
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) return cannot_open();
-  loaded_files_.push_back(canonical);
-  return add_idl_text(text.str(), file.string(), diagnostics);
+  return add_file(file, diagnostics, &TypeRegistry::add_idl_text);
 }
 
 }  // namespace polyport

@@ -1,5 +1,11 @@
 #include "polyport/types.hpp"
 
+#include <algorithm>
+
+#include <sstream>
+
+#include <fstream>
+
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -406,6 +412,24 @@ std::optional<ConstValue> TypeRegistry::constant(std::string_view qualified_name
 }
 
 Type& TypeRegistry::make_type() { return storage_.emplace_back(); }
+
+bool TypeRegistry::add_file(const std::filesystem::path& file, Diagnostics& diagnostics, AddText add_text) {
+  const auto cannot_open = [&] {
+    diagnostics.error(SourceLocation{file.string(), 0, 0}, std::string(), "cannot open file");
+    return false;
+  };
+  std::error_code error;
+  const std::filesystem::path canonical = std::filesystem::canonical(file, error);
+  if (error || !std::filesystem::is_regular_file(canonical, error)) return cannot_open();
+  if (std::find(loaded_files_.begin(), loaded_files_.end(), canonical) != loaded_files_.end()) return true;
+  std::ifstream in(canonical, std::ios::binary);
+  if (!in) return cannot_open();
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) return cannot_open();
+  loaded_files_.push_back(canonical);
+  return (this->*add_text)(text.str(), file.string(), diagnostics);
+}
 
 bool TypeRegistry::add_type_file(const std::filesystem::path& file, Diagnostics& diagnostics) {
   const std::string extension = file.extension().string();

@@ -147,6 +147,9 @@ class TypeRegistry {
  private:
   friend class IdlParser;
   Type& make_type();  // stable address; owned by the registry
+  // Reads a type file once (by canonical path) and hands its text to one of add_*_text.
+  using AddText = bool (TypeRegistry::*)(std::string_view, const std::string&, Diagnostics&);
+  bool add_file(const std::filesystem::path& file, Diagnostics& diagnostics, AddText add_text);
   void declare(Type& type);
 
   std::deque<Type> storage_;
