@@ -641,10 +641,18 @@ const std::vector<ChildRule> kComponentRules = {
     {"model", {"model"}},
     {"execution_environment", {"execution_environment"}},
     {"execution_semantics", {"execution_semantics"}},
+    {"dds", {"dds"}},
     {"types", {"types"}},
     {"properties", {"properties"}},
     {"ports", {"ports"}},
 };
+const std::vector<ChildRule> kDdsRules = {
+    {"domain", {"domain"}},
+    {"config", {"config"}},
+};
+// DDS domain ids: 0..232 (the RTPS port mapping with its default parameters).
+constexpr std::uint32_t kMaxDdsDomain = 232;
+bool is_dds_model(std::string_view model) { return model == "cyclonedds" || model == "fastdds"; }
 const std::vector<ChildRule> kEnvironmentRules = {
     {"library_type", {"library_type"}},
     {"library_name", {"library_name"}},
@@ -674,6 +682,7 @@ const std::vector<ChildRule> kDataPortRules = {
     {"policy", {"queueing_policy", "policy"}},
     {"depth", {"queue_size", "queueing_size"}},
     {"policy_param", {"policy_param"}, true, {"name"}},
+    {"topic", {"topic"}},
 };
 const std::vector<ChildRule> kServicePortRules = {
     {"name", {"name"}},
@@ -1188,6 +1197,12 @@ class Loader {
     if (const auto semantics = children.one("execution_semantics")) {
       read_execution(report, semantics, profile);
     }
+    if (const auto dds = children.one("dds")) {
+      if (!is_dds_model(profile.model)) {
+        report.warning(dds, "<dds> is ignored by model " + in_quotes(profile.model));
+      }
+      read_dds(report, dds, profile);
+    }
     if (const auto types = children.one("types")) {
       read_type_files(report, types, profile.type_files);
     }
@@ -1195,6 +1210,34 @@ class Loader {
       read_properties(report, properties, profile);
     }
     if (const auto ports = children.one("ports")) read_ports(report, ports, component);
+  }
+
+  void read_dds(const Reporter& report, pugi::xml_node dds, ComponentProfile& profile) {
+    profile.dds_where = report.xml().at(dds);
+    const Children children = scan(report, dds, kDdsRules);
+    if (const auto domain = children.one("domain")) {
+      const std::string text = text_of(domain);
+      const auto value = parse_integer<std::uint32_t>(text);
+      if (!value || *value > kMaxDdsDomain) {
+        report.error_text(domain, "bad DDS domain " + in_quotes(text) + ": expected an integer from 0 to " +
+                                      std::to_string(kMaxDdsDomain));
+      } else {
+        profile.dds_domain = *value;
+      }
+    }
+    if (const auto config = children.one("config")) {
+      const std::string text = text_of(config);
+      if (text.empty()) {
+        profile.dds_config = fs::path();  // the SDK's own defaults
+        return;
+      }
+      const fs::path file = absolute_path(fs::path(report.xml().name()).parent_path() / text);
+      profile.dds_config = file;
+      std::error_code ec;
+      if (!fs::is_regular_file(file, ec)) {
+        report.error_text(config, "DDS configuration file " + in_quotes(file.string()) + " not found");
+      }
+    }
   }
 
   void read_library(const Reporter& report, pugi::xml_node root, pugi::xml_node environment,
@@ -1412,6 +1455,15 @@ class Loader {
       }
     } else {
       complete = false;
+    }
+
+    if (const auto topic = fields.one("topic")) {
+      port.topic = text_of(topic);
+      if (port.topic.empty()) {
+        report.error(topic, "empty <topic>");
+      } else if (!is_dds_model(component.profile.model)) {
+        report.warning(topic, "<topic> is ignored by model " + in_quotes(component.profile.model));
+      }
     }
 
     const pugi::xml_node policy = fields.one("policy");

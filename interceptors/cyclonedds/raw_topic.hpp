@@ -3,7 +3,7 @@
 // included, under whatever type name we give it ("demo::Pose", spelled as idlc spells
 // `module demo { struct Pose }`), so generated-code applications match it.
 //
-// Scope (first step of the Cyclone model; not wired into the engine yet):
+// Scope (the Cyclone model uses these through cyclonedds_interceptor.hpp):
 //  - keyless topics only: every sample is one instance; a keyed peer type would not match
 //    (the topic kind differs) and keyed instances are not kept apart;
 //  - no XTypes type information is sent; Cyclone matches such endpoints by type name;

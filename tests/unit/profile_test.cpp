@@ -951,3 +951,29 @@ TEST(ProfileSchema, FixturesAgainstTheXsd) {
 }
 
 }  // namespace
+
+namespace {
+
+// DDS components (tests/data/cyclonedds): <dds> and <topic> are read without any model or
+// library being needed.
+TEST_F(ProfileLoader, ReadsDdsDomainConfigAndTopics) {
+  const auto app = load("../cyclonedds/bridge_app.xml");
+  ASSERT_TRUE(app.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_TRUE(messages().empty()) << ::testing::PrintToString(messages());
+  const Subcomponent* left = app->find_component("left");
+  const Subcomponent* right = app->find_component("right");
+  ASSERT_NE(left, nullptr);
+  ASSERT_NE(right, nullptr);
+  EXPECT_EQ(left->profile.model, "cyclonedds");
+  EXPECT_EQ(left->profile.dds_domain, 144u);
+  EXPECT_FALSE(left->profile.dds_config.has_value());  // the model's default
+  EXPECT_EQ(right->profile.dds_domain, 145u);
+  ASSERT_TRUE(right->profile.dds_config.has_value());
+  EXPECT_EQ(right->profile.dds_config->filename(), "cyclonedds-loopback.xml");
+  EXPECT_TRUE(right->profile.dds_config->is_absolute());
+  ASSERT_EQ(left->profile.ports.size(), 1u);
+  EXPECT_EQ(left->profile.ports[0].topic, "polyport_bridge_pose");
+  EXPECT_EQ(left->profile.ports[0].direction, PortDirection::output);
+}
+
+}  // namespace

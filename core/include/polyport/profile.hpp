@@ -42,6 +42,7 @@ struct PortSpec {
   std::vector<OperationSpec> operations;  // service ports
   std::optional<QueuePolicy> policy;   // input data/event ports: reading-side policy
   std::optional<std::uint32_t> depth;  // buffer/circular depth
+  std::string topic;                   // DDS models, data ports: the topic (empty: the port name)
   SourceLocation where;
 };
 
@@ -69,6 +70,12 @@ struct ComponentProfile {
   std::filesystem::path library_path;  // inproc: resolved path (empty if not found)
   std::string class_name;           // inproc: component class in the library (default: name)
   ExecutionSemantics execution;
+  // DDS models (<dds>): the domain id, and the middleware configuration file (absolute).
+  // dds_config: nullopt = the model's shipped default; an empty path = the SDK's own defaults
+  // (for Cyclone: CYCLONEDDS_URI from the environment).
+  std::uint32_t dds_domain = 0;
+  std::optional<std::filesystem::path> dds_config;
+  SourceLocation dds_where;
   InitialState initial_state = InitialState::active;  // OPRoS lifecycle_type start|stop
   std::vector<PropertySpec> properties;
   std::vector<PortSpec> ports;
