@@ -69,6 +69,30 @@ struct Frame {
   std::uint32_t remaining;
 };
 
+// Loop control shared by the encoder and the decoder. Enters a loop of `count` elements
+// starting at `base` (or jumps past it when empty); at loop_end, steps to the next element
+// or leaves the loop.
+inline void enter_loop(Frame* frames, int& top, std::uint64_t base, std::uint32_t count, const Instruction& in,
+                       std::size_t& pc) noexcept {
+  if (count == 0) {
+    pc = in.jump;
+    return;
+  }
+  frames[++top] = Frame{base, count};
+  ++pc;
+}
+
+inline void end_loop(Frame* frames, int& top, const Instruction& in, std::size_t& pc) noexcept {
+  Frame& frame = frames[top];
+  if (--frame.remaining > 0) {
+    frame.base += in.stride;
+    pc = in.jump;
+  } else {
+    --top;
+    ++pc;
+  }
+}
+
 // ---- byte order -------------------------------------------------------------------------
 
 template <class U>
@@ -538,25 +562,12 @@ class LcmCodec final : public Codec {
           store_span(flat + base + in.offset,
                      FlatSpan{static_cast<std::uint32_t>(start), static_cast<std::uint32_t>(length)});
           tail = start + bytes;
-          if (length == 0) {
-            pc = in.jump;
-          } else {
-            frames[++top] = Frame{start, static_cast<std::uint32_t>(length)};
-            ++pc;
-          }
+          enter_loop(frames.data(), top, start, static_cast<std::uint32_t>(length), in, pc);
           break;
         }
-        case Op::loop_end: {
-          Frame& frame = frames[top];
-          if (--frame.remaining > 0) {
-            frame.base += in.stride;
-            pc = in.jump;
-          } else {
-            --top;
-            ++pc;
-          }
+        case Op::loop_end:
+          end_loop(frames.data(), top, in, pc);
           break;
-        }
       }
     }
     if (pos != wire_size) return {CodecError::trailing_bytes};
@@ -631,25 +642,12 @@ class LcmCodec final : public Codec {
           const FlatSpan span = load_span(flat + base + in.offset);
           if (length < 0 || static_cast<std::uint64_t>(length) != span.count) return {CodecError::bad_value};
           if (!span_fits(span, in.stride)) return {CodecError::bad_value};
-          if (span.count == 0) {
-            pc = in.jump;
-          } else {
-            frames[++top] = Frame{span.offset, span.count};
-            ++pc;
-          }
+          enter_loop(frames.data(), top, span.offset, span.count, in, pc);
           break;
         }
-        case Op::loop_end: {
-          Frame& frame = frames[top];
-          if (--frame.remaining > 0) {
-            frame.base += in.stride;
-            pc = in.jump;
-          } else {
-            --top;
-            ++pc;
-          }
+        case Op::loop_end:
+          end_loop(frames.data(), top, in, pc);
           break;
-        }
       }
     }
     return {CodecError::ok, static_cast<std::uint32_t>(pos)};
