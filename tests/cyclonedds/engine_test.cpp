@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "../support/engine_fixture.hpp"
 #include "../support/eventually.hpp"
 #include "cyclonedds_model.hpp"
 #include "dds/dds.h"
@@ -31,23 +32,11 @@ using test::GeneratedPeer;
 using test::publication_matches;
 using test::subscription_matches;
 
-class CycloneEngineTest : public ::testing::Test {
+class CycloneEngineTest : public test::EngineFixture {
  protected:
-  CycloneEngineTest() { models.add(std::make_unique<cyclonedds::CycloneModel>()); }
-  bool build(const std::string& file) {
-    auto profile = load_application_profile(std::string(POLYPORT_TEST_DATA "/cyclonedds/") + file, types,
-                                            LoadOptions{}, diagnostics);
-    return profile && engine.build(*profile, diagnostics);
+  CycloneEngineTest() : EngineFixture(POLYPORT_TEST_DATA "/cyclonedds", LoadOptions{}) {
+    models.add(std::make_unique<cyclonedds::CycloneModel>());
   }
-  std::string problems() const {
-    std::string out;
-    for (const auto& d : diagnostics.all()) out += d.to_string() + "\n";
-    return out;
-  }
-  TypeRegistry types;
-  ModelRegistry models;
-  Diagnostics diagnostics;
-  Engine engine{models, types};
 };
 
 TEST_F(CycloneEngineTest, BridgesTwoDomainsAsPassthrough) {

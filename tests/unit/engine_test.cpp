@@ -11,6 +11,7 @@
 #include "polyport/component_api.hpp"
 #include "polyport/engine.hpp"
 #include "polyport/types.hpp"
+#include "../support/engine_fixture.hpp"
 #include "../support/eventually.hpp"
 
 namespace polyport {
@@ -18,23 +19,11 @@ namespace {
 
 using test::eventually;
 
-class EngineTest : public ::testing::Test {
+class EngineTest : public test::EngineFixture {
  protected:
-  EngineTest() { models.add(std::make_unique<inproc::InprocModel>()); }
-  bool build(const std::string& file) {
-    auto profile = load_application_profile(std::string(POLYPORT_TEST_DATA "/engine/") + file, types,
-                                            LoadOptions{{POLYPORT_PLUGIN_DIR}}, diagnostics);
-    return profile && engine.build(*profile, diagnostics);
+  EngineTest() : EngineFixture(POLYPORT_TEST_DATA "/engine", LoadOptions{{POLYPORT_PLUGIN_DIR}}) {
+    models.add(std::make_unique<inproc::InprocModel>());
   }
-  std::string problems() const {
-    std::string out;
-    for (const auto& d : diagnostics.all()) out += d.to_string() + "\n";
-    return out;
-  }
-  TypeRegistry types;
-  ModelRegistry models;
-  Diagnostics diagnostics;
-  Engine engine{models, types};
 };
 
 TEST_F(EngineTest, DataAndServiceConnectionsAcrossExecutionContexts) {

@@ -2,6 +2,8 @@
 // byte vectors written out here were produced by lcm-gen 1.3.1's generated C code; the
 // cross tests (tests/cross/lcm) check the same against lcm-gen at every build.
 #include <gtest/gtest.h>
+
+#include "../support/type_lookup.hpp"
 #include <unistd.h>
 
 #include <cstddef>
@@ -40,24 +42,9 @@ class LcmFixture : public ::testing::Test {
     return get(name);
   }
 
-  const Type& get(std::string_view name) {
-    const Type* type = registry_.find(name);
-    if (type == nullptr) {
-      ADD_FAILURE() << "type " << name << " not found";
-      return *registry_.primitive(TypeKind::octet);
-    }
-    return *type;
-  }
+  const Type& get(std::string_view name) { return test::type_or_fail(registry_, name); }
 
-  const Field& field(const Type& type, std::string_view name) {
-    const Field* found = type.find_field(name);
-    if (found == nullptr) {
-      ADD_FAILURE() << "no field " << name << " in " << type.name;
-      static const Field kNone;
-      return kNone;
-    }
-    return *found;
-  }
+  const Field& field(const Type& type, std::string_view name) { return test::field_or_fail(type, name); }
 
   Messages errors_for(std::string_view text) {
     EXPECT_FALSE(parse(text));

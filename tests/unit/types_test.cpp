@@ -1,6 +1,8 @@
 #include "polyport/types.hpp"
 
 #include <gtest/gtest.h>
+
+#include "../support/type_lookup.hpp"
 #include <unistd.h>
 
 #include <cmath>
@@ -38,23 +40,10 @@ class IdlFixture : public ::testing::Test {
   const Type& parse_ok(std::string_view idl, std::string_view name) {
     EXPECT_TRUE(parse(idl)) << ::testing::PrintToString(messages());
     EXPECT_TRUE(diagnostics_.all().empty()) << ::testing::PrintToString(messages());
-    const Type* type = registry_.find(name);
-    if (type == nullptr) {
-      ADD_FAILURE() << "type " << name << " not found";
-      return *registry_.primitive(TypeKind::octet);
-    }
-    return *type;
+    return test::type_or_fail(registry_, name);
   }
 
-  const Field& field(const Type& type, std::string_view name) {
-    const Field* found = type.find_field(name);
-    if (found == nullptr) {
-      ADD_FAILURE() << "no field " << name << " in " << type.name;
-      static const Field kNone;
-      return kNone;
-    }
-    return *found;
-  }
+  const Field& field(const Type& type, std::string_view name) { return test::field_or_fail(type, name); }
 
   std::vector<std::string> errors_for(std::string_view idl) {
     EXPECT_FALSE(parse(idl));
