@@ -2,8 +2,14 @@
 #include "models.hpp"
 
 #include "inproc_model.hpp"
+#if defined(POLYPORT_WITH_CYCLONEDDS) || defined(POLYPORT_WITH_FASTDDS)
+#include "dds_model.hpp"
+#endif
 #ifdef POLYPORT_WITH_CYCLONEDDS
-#include "cyclonedds_model.hpp"
+#include "cyclonedds_domain.hpp"
+#endif
+#ifdef POLYPORT_WITH_FASTDDS
+#include "fastdds_domain.hpp"
 #endif
 
 namespace polyport::daemon {
@@ -11,7 +17,11 @@ namespace polyport::daemon {
 void register_models(ModelRegistry& registry) {
   registry.add(std::make_unique<inproc::InprocModel>());
 #ifdef POLYPORT_WITH_CYCLONEDDS
-  registry.add(std::make_unique<cyclonedds::CycloneModel>());
+  registry.add(std::make_unique<dds::DdsModel>("cyclonedds", cyclonedds::make_cyclonedds_domain,
+                                               cyclonedds::default_config()));
+#endif
+#ifdef POLYPORT_WITH_FASTDDS
+  registry.add(std::make_unique<dds::DdsModel>("fastdds", fastdds::make_fastdds_domain, fastdds::default_config()));
 #endif
 }
 

@@ -1,19 +1,12 @@
 #include "inproc_adaptor.hpp"
 
+#include "polyport/model.hpp"
+
 #include <string>
 
 namespace polyport::inproc {
 
 namespace {
-
-std::vector<OperationInfo> operations_of(const PortSpec& spec, const TypeRegistry& types) {
-  std::vector<OperationInfo> out;
-  for (const OperationSpec& op : spec.operations) {
-    out.push_back(OperationInfo{op.name, op.request_type.empty() ? nullptr : types.find(op.request_type),
-                                op.reply_type.empty() ? nullptr : types.find(op.reply_type), op.oneway});
-  }
-  return out;
-}
 
 std::string describe_declaration(const PortDeclaration& d) {
   return std::string(to_string(d.kind)) + " " + std::string(to_string(d.direction)) + " port '" + d.name + "'";

@@ -1,6 +1,18 @@
 #include "polyport/model.hpp"
 
+#include "polyport/service.hpp"
+#include "polyport/types.hpp"
+
 namespace polyport {
+
+std::vector<OperationInfo> operations_of(const PortSpec& spec, const TypeRegistry& types) {
+  std::vector<OperationInfo> out;
+  for (const OperationSpec& op : spec.operations) {
+    out.push_back(OperationInfo{op.name, op.request_type.empty() ? nullptr : types.find(op.request_type),
+                                op.reply_type.empty() ? nullptr : types.find(op.reply_type), op.oneway});
+  }
+  return out;
+}
 
 void ModelRegistry::add(std::unique_ptr<Model> model) { models_.push_back(std::move(model)); }
 

@@ -649,7 +649,40 @@ const std::vector<ChildRule> kComponentRules = {
 const std::vector<ChildRule> kDdsRules = {
     {"domain", {"domain"}},
     {"config", {"config"}},
+    {"qos", {"qos"}},
+    {"max_calls_in_flight", {"max_calls_in_flight"}},
+    {"call_timeout", {"call_timeout_ms"}},
 };
+const std::vector<ChildRule> kQosRules = {
+    {"reliability", {"reliability"}},
+    {"durability", {"durability"}},
+    {"history", {"history"}},
+    {"depth", {"depth"}},
+    {"deadline", {"deadline_ms"}},
+    {"lifespan", {"lifespan_ms"}},
+    {"liveliness", {"liveliness"}},
+    {"lease", {"lease_ms"}},
+    {"partition", {"partition"}, true},
+};
+constexpr Spelling<DdsQos::Reliability> kReliabilities[] = {
+    {"reliable", DdsQos::Reliability::reliable},
+    {"best_effort", DdsQos::Reliability::best_effort},
+};
+constexpr Spelling<DdsQos::Durability> kDurabilities[] = {
+    {"volatile", DdsQos::Durability::volatile_},
+    {"transient_local", DdsQos::Durability::transient_local},
+};
+constexpr Spelling<DdsQos::History> kHistories[] = {
+    {"keep_last", DdsQos::History::keep_last},
+    {"keep_all", DdsQos::History::keep_all},
+};
+constexpr Spelling<DdsQos::Liveliness> kLivelinesses[] = {
+    {"automatic", DdsQos::Liveliness::automatic},
+    {"manual_by_participant", DdsQos::Liveliness::manual_by_participant},
+    {"manual_by_topic", DdsQos::Liveliness::manual_by_topic},
+};
+// Calls in flight per DDS service port: enough for any sane client, bounded for the tables.
+constexpr std::uint32_t kMaxDdsCallsInFlight = 4096;
 // DDS domain ids: 0..232 (the RTPS port mapping with its default parameters).
 constexpr std::uint32_t kMaxDdsDomain = 232;
 bool is_dds_model(std::string_view model) { return model == "cyclonedds" || model == "fastdds"; }
@@ -683,13 +716,16 @@ const std::vector<ChildRule> kDataPortRules = {
     {"depth", {"queue_size", "queueing_size"}},
     {"policy_param", {"policy_param"}, true, {"name"}},
     {"topic", {"topic"}},
+    {"qos", {"qos"}},
 };
 const std::vector<ChildRule> kServicePortRules = {
     {"name", {"name"}},
     {"", {"description", "reference"}},
     {"type", {"type"}},
     {"usage", {"usage"}},
-    {"operation", {"operation"}, true, {"name", "request", "reply", "oneway"}},
+    {"topic", {"topic"}},
+    {"qos", {"qos"}},
+    {"operation", {"operation"}, true, {"name", "request", "reply", "oneway", "dds_request", "dds_reply"}},
 };
 
 // ---------------------------------------------------------------------------------------
@@ -1229,14 +1265,88 @@ class Loader {
       const std::string text = text_of(config);
       if (text.empty()) {
         profile.dds_config = fs::path();  // the SDK's own defaults
-        return;
+      } else {
+        const fs::path file = absolute_path(fs::path(report.xml().name()).parent_path() / text);
+        profile.dds_config = file;
+        std::error_code ec;
+        if (!fs::is_regular_file(file, ec)) {
+          report.error_text(config, "DDS configuration file " + in_quotes(file.string()) + " not found");
+        }
       }
-      const fs::path file = absolute_path(fs::path(report.xml().name()).parent_path() / text);
-      profile.dds_config = file;
-      std::error_code ec;
-      if (!fs::is_regular_file(file, ec)) {
-        report.error_text(config, "DDS configuration file " + in_quotes(file.string()) + " not found");
+    }
+    if (const auto qos = children.one("qos")) read_qos(report, qos, profile.dds_qos);
+    if (const auto cap = children.one("max_calls_in_flight")) {
+      const std::string text = text_of(cap);
+      const auto value = parse_integer<std::uint32_t>(text);
+      if (!value || *value == 0 || *value > kMaxDdsCallsInFlight) {
+        report.error_text(cap, "bad max_calls_in_flight " + in_quotes(text) + ": expected an integer from 1 to " +
+                                   std::to_string(kMaxDdsCallsInFlight));
+      } else {
+        profile.dds_max_calls_in_flight = *value;
       }
+    }
+    if (const auto timeout = children.one("call_timeout")) {
+      if (const auto ns = duration_ns(report, timeout, "call_timeout_ms"); ns && *ns > 0) {
+        profile.dds_call_timeout_ns = *ns;
+      } else if (ns) {
+        report.error_text(timeout, "call_timeout_ms must be greater than 0");
+      }
+    }
+  }
+
+  // A duration in milliseconds (decimal), as nanoseconds; at most a day.
+  static std::optional<std::int64_t> duration_ns(const Reporter& report, pugi::xml_node element,
+                                                 std::string_view what) {
+    const std::string text = text_of(element);
+    const auto value = parse_decimal(text);
+    constexpr double kMaxMs = 86'400'000.0;
+    if (!value || *value < 0.0 || *value > kMaxMs) {
+      report.error_text(element, "bad " + std::string(what) + " " + in_quotes(text) +
+                                     ": expected a number of milliseconds from 0 to 86400000");
+      return std::nullopt;
+    }
+    return static_cast<std::int64_t>(*value * 1e6 + 0.5);
+  }
+
+  // <qos>: each child present overrides that field of `qos` (the component's defaults, or
+  // the model's).
+  void read_qos(const Reporter& report, pugi::xml_node element, DdsQos& qos) {
+    const Children children = scan(report, element, kQosRules);
+    if (const auto node = children.one("reliability")) {
+      if (auto value = enum_text(report, node, kReliabilities, "reliability")) qos.reliability = *value;
+    }
+    if (const auto node = children.one("durability")) {
+      if (auto value = enum_text(report, node, kDurabilities, "durability")) qos.durability = *value;
+    }
+    if (const auto node = children.one("history")) {
+      if (auto value = enum_text(report, node, kHistories, "history")) qos.history = *value;
+    }
+    if (const auto node = children.one("depth")) {
+      const std::string text = text_of(node);
+      const auto value = parse_integer<std::int32_t>(text);
+      if (!value || *value <= 0) {
+        report.error_text(node, "bad history depth " + in_quotes(text) + ": expected an integer from 1 to 2147483647");
+      } else {
+        qos.depth = *value;
+      }
+    }
+    if (const auto node = children.one("deadline")) {
+      if (const auto ns = duration_ns(report, node, "deadline_ms")) qos.deadline_ns = *ns > 0 ? ns : std::nullopt;
+    }
+    if (const auto node = children.one("lifespan")) {
+      if (const auto ns = duration_ns(report, node, "lifespan_ms")) qos.lifespan_ns = *ns > 0 ? ns : std::nullopt;
+    }
+    if (const auto node = children.one("liveliness")) {
+      if (auto value = enum_text(report, node, kLivelinesses, "liveliness")) qos.liveliness = *value;
+    }
+    if (const auto node = children.one("lease")) {
+      if (const auto ns = duration_ns(report, node, "lease_ms")) qos.lease_ns = *ns > 0 ? ns : std::nullopt;
+    }
+    if (!children.all("partition").empty()) qos.partitions.clear();  // a port's list replaces the component's
+    for (const pugi::xml_node node : children.all("partition")) qos.partitions.push_back(text_of(node));
+    if (qos.deadline_ns && qos.lifespan_ns && *qos.lifespan_ns < *qos.deadline_ns) {
+      // Legal in DDS, but samples then expire before the next is due: say so.
+      report.warning(element, "lifespan_ms is shorter than deadline_ms: readers may miss every deadline");
     }
   }
 
@@ -1457,14 +1567,7 @@ class Loader {
       complete = false;
     }
 
-    if (const auto topic = fields.one("topic")) {
-      port.topic = text_of(topic);
-      if (port.topic.empty()) {
-        report.error(topic, "empty <topic>");
-      } else if (!is_dds_model(component.profile.model)) {
-        report.warning(topic, "<topic> is ignored by model " + in_quotes(component.profile.model));
-      }
-    }
+    read_dds_port(report, fields, port, component.profile);
 
     const pugi::xml_node policy = fields.one("policy");
     if (policy) {
@@ -1522,9 +1625,30 @@ class Loader {
     return complete;
   }
 
+  // <topic> and <qos> of a port (DDS models only).
+  void read_dds_port(const Reporter& report, const Children& fields, PortSpec& port,
+                     const ComponentProfile& profile) {
+    port.qos = profile.dds_qos;
+    const bool dds = is_dds_model(profile.model);
+    if (const auto topic = fields.one("topic")) {
+      port.topic = text_of(topic);
+      if (port.topic.empty()) {
+        report.error(topic, "empty <topic>");
+      } else if (!dds) {
+        report.warning(topic, "<topic> is ignored by model " + in_quotes(profile.model));
+      }
+    }
+    if (const auto qos = fields.one("qos")) {
+      if (!dds) report.warning(qos, "<qos> is ignored by model " + in_quotes(profile.model));
+      read_qos(report, qos, port.qos);
+    }
+  }
+
   bool read_service_port(const Reporter& report, pugi::xml_node node, const Children& fields,
                          PortSpec& port, LoadedComponent& component) {
     bool complete = true;
+    read_dds_port(report, fields, port, component.profile);
+    const bool dds = is_dds_model(component.profile.model);
     if (auto type = optional_text(fields, "type")) port.service_type = *type;
     if (const auto usage = required_text(report, node, fields, "usage", "usage")) {
       if (auto direction = enum_text(report, fields.one("usage"), kServiceUsages, "usage",
@@ -1556,9 +1680,29 @@ class Loader {
       if (operation.oneway && !operation.reply_type.empty()) {
         report.error_attribute(element, "reply", "a oneway operation has no reply");
       }
-      for (const std::string_view attribute : {"request", "reply"}) {
-        const std::string& type_name =
-            attribute == "request" ? operation.request_type : operation.reply_type;
+      operation.dds_request_type = std::string(trim(element.attribute("dds_request").value()));
+      operation.dds_reply_type = std::string(trim(element.attribute("dds_reply").value()));
+      if (!dds && (element.attribute("dds_request") || element.attribute("dds_reply"))) {
+        report.warning(element, "dds_request / dds_reply are ignored by model " + in_quotes(component.profile.model));
+        operation.dds_request_type.clear();
+        operation.dds_reply_type.clear();
+      }
+      if (dds && operation.dds_request_type.empty()) {
+        report.error(element, "missing attribute 'dds_request': the struct a DDS application writes on the "
+                              "request topic (a polyport::rpc::RequestHeader, then the request)");
+      }
+      if (dds && !operation.oneway && operation.dds_reply_type.empty()) {
+        report.error(element, "missing attribute 'dds_reply': the struct a DDS application writes on the "
+                              "reply topic (a polyport::rpc::ReplyHeader, then the reply)");
+      }
+      if (dds && operation.oneway && !operation.dds_reply_type.empty()) {
+        report.error_attribute(element, "dds_reply", "a oneway operation has no reply");
+      }
+      for (const std::string_view attribute : {"request", "reply", "dds_request", "dds_reply"}) {
+        const std::string& type_name = attribute == "request"       ? operation.request_type
+                                       : attribute == "reply"       ? operation.reply_type
+                                       : attribute == "dds_request" ? operation.dds_request_type
+                                                                    : operation.dds_reply_type;
         if (type_name.empty()) continue;
         component.type_uses.push_back({type_name, report.xml().at_attribute(element, attribute),
                                        attribute_path(element, attribute)});

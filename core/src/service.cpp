@@ -18,6 +18,15 @@ std::uint32_t payload_size(const Type* type) { return type ? type->size : 0; }
 }  // namespace
 
 void PendingCall::complete(Status status) noexcept {
+  if (observer_ != nullptr) {
+    // Asynchronous: nobody waits on the slot; the observer takes the reply, then the slot
+    // goes back to the pool.
+    status_ = status;
+    if (status != Status::ok) reply_size = 0;
+    observer_->on_call_complete(*this, status, tag_);
+    owner_->finish_async(*this, status);
+    return;
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   status_ = status;
   const State state = state_.load(std::memory_order_relaxed);
@@ -136,6 +145,7 @@ RequiredServicePort::RequiredServicePort(Component& owner, std::string name, std
     call->reply_storage_ = std::make_unique<std::byte[]>(reply_bytes + 1);
     call->reply = call->reply_storage_.get();
     call->reply_capacity = reply_bytes;
+    call->owner_ = this;
     pool_.push_back(std::move(call));
   }
 }
@@ -154,7 +164,8 @@ bool RequiredServicePort::connect(ProvidedServicePort& provider) {
 void RequiredServicePort::disconnect() noexcept { provider_.store(nullptr, std::memory_order_release); }
 
 PendingCall* RequiredServicePort::acquire(std::string_view operation, const void* request,
-                                          std::uint32_t request_size, bool wants_reply, Status& status) noexcept {
+                                          std::uint32_t request_size, bool wants_reply, Status& status,
+                                          CallObserver* observer, std::uint64_t tag) noexcept {
   counters_.calls.fetch_add(1, std::memory_order_relaxed);
   ProvidedServicePort* provider = provider_.load(std::memory_order_acquire);
   if (!provider) {
@@ -189,6 +200,9 @@ PendingCall* RequiredServicePort::acquire(std::string_view operation, const void
     call.reply_size = 0;
     call.wants_reply = wants_reply;
     call.status_ = Status::ok;
+    call.observer_ = observer;
+    call.tag_ = tag;
+    if (observer != nullptr) call.started_ = mono_now();
     status = provider->dispatch(call);
     return &call;
   }
@@ -268,6 +282,25 @@ void RequiredServicePort::cancel(CallHandle& handle) noexcept {
   }
   handle.call = nullptr;
   handle.status = Status::timeout;
+}
+
+Status RequiredServicePort::request_async(std::string_view operation, const void* request,
+                                          std::uint32_t request_size, CallObserver& observer,
+                                          std::uint64_t tag) noexcept {
+  Status status = Status::ok;
+  // A call that reached the provider ends through the observer, refused or not.
+  return acquire(operation, request, request_size, true, status, &observer, tag) != nullptr ? Status::ok : status;
+}
+
+void RequiredServicePort::finish_async(PendingCall& call, Status status) noexcept {
+  if (status == Status::timeout) {
+    counters_.timeouts.fetch_add(1, std::memory_order_relaxed);
+  } else {
+    (status == Status::ok ? counters_.ok : counters_.errors).fetch_add(1, std::memory_order_relaxed);
+  }
+  if (status == Status::ok) latency_.record((mono_now() - call.started_).count);
+  call.observer_ = nullptr;
+  call.state_.store(PendingCall::State::free, std::memory_order_release);
 }
 
 Status RequiredServicePort::send(std::string_view operation, const void* request, std::uint32_t request_size) {

@@ -24,6 +24,7 @@
 #include <new>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 #include "dds/dds.h"
 #include "dds/ddsi/ddsi_keyhash.h"
@@ -299,6 +300,8 @@ struct QosDeleter {
 };
 using QosPtr = std::unique_ptr<dds_qos_t, QosDeleter>;
 
+dds_duration_t duration(const std::optional<std::int64_t>& ns) { return ns ? *ns : DDS_INFINITY; }
+
 QosPtr to_dds(const Qos& qos) {
   QosPtr q(dds_create_qos());
   dds_qset_reliability(q.get(),
@@ -312,7 +315,28 @@ QosPtr to_dds(const Qos& qos) {
                    qos.history == Qos::History::keep_last ? DDS_HISTORY_KEEP_LAST
                                                           : DDS_HISTORY_KEEP_ALL,
                    qos.depth);
+  dds_qset_deadline(q.get(), duration(qos.deadline_ns));
+  dds_qset_lifespan(q.get(), duration(qos.lifespan_ns));
+  const dds_liveliness_kind_t liveliness =
+      qos.liveliness == Qos::Liveliness::automatic               ? DDS_LIVELINESS_AUTOMATIC
+      : qos.liveliness == Qos::Liveliness::manual_by_participant ? DDS_LIVELINESS_MANUAL_BY_PARTICIPANT
+                                                                 : DDS_LIVELINESS_MANUAL_BY_TOPIC;
+  dds_qset_liveliness(q.get(), liveliness, duration(qos.lease_ns));
   return q;
+}
+
+// Partitions belong to the publisher / subscriber: an endpoint with partitions gets one of
+// its own. Returns 0 (use the participant's implicit one) when there are none.
+Result<dds_entity_t> partition_parent(dds_entity_t participant, const Qos& qos, bool publisher) {
+  if (qos.partitions.empty()) return dds_entity_t{0};
+  QosPtr q(dds_create_qos());
+  std::vector<const char*> names;
+  for (const std::string& name : qos.partitions) names.push_back(name.c_str());
+  dds_qset_partition(q.get(), static_cast<std::uint32_t>(names.size()), names.data());
+  const dds_entity_t parent = publisher ? dds_create_publisher(participant, q.get(), nullptr)
+                                        : dds_create_subscriber(participant, q.get(), nullptr);
+  if (parent < 0) return sdk_error(publisher ? "creating a publisher" : "creating a subscriber", parent);
+  return parent;
 }
 
 Result<std::string> check(const Qos& qos) {
@@ -395,21 +419,35 @@ Result<std::unique_ptr<RawWriter>> RawWriter::create(Participant& participant,
                                                      const std::string& topic_name,
                                                      const std::string& type_name, const Qos& qos) {
   if (auto ok = check(qos); !ok) return ok.error();
+  auto publisher = partition_parent(participant.handle(), qos, true);
+  if (!publisher) return publisher.error();
   auto topic = create_raw_topic(participant.handle(), topic_name, type_name);
-  if (!topic) return topic.error();
+  if (!topic) {
+    if (publisher.value() > 0) dds_delete(publisher.value());
+    return topic.error();
+  }
   const QosPtr dds_qos = to_dds(qos);
-  const dds_entity_t writer = dds_create_writer(participant.handle(), topic.value(),
-                                                dds_qos.get(), nullptr);
+  const dds_entity_t parent = publisher.value() > 0 ? publisher.value() : participant.handle();
+  const dds_entity_t writer = dds_create_writer(parent, topic.value(), dds_qos.get(), nullptr);
   if (writer < 0) {
     dds_delete(topic.value());
+    if (publisher.value() > 0) dds_delete(publisher.value());
     return sdk_error("creating a writer on topic '" + topic_name + "'", writer);
   }
-  return std::unique_ptr<RawWriter>(new RawWriter(topic.value(), writer));
+  return std::unique_ptr<RawWriter>(new RawWriter(publisher.value(), topic.value(), writer));
 }
 
 RawWriter::~RawWriter() {
   dds_delete(writer_);
   dds_delete(topic_);
+  if (publisher_ > 0) dds_delete(publisher_);
+}
+
+std::array<std::uint8_t, 16> RawWriter::guid() const noexcept {
+  std::array<std::uint8_t, 16> out{};
+  dds_guid_t guid;
+  if (dds_get_guid(writer_, &guid) == DDS_RETCODE_OK) std::memcpy(out.data(), guid.v, out.size());
+  return out;
 }
 
 Status RawWriter::write(const std::byte* cdr, std::uint32_t size) noexcept {
@@ -466,24 +504,28 @@ Result<std::unique_ptr<RawReader>> RawReader::create(Participant& participant,
                                                      Callback callback, const Qos& qos) {
   if (!callback) return make_error("a raw reader on '" + topic_name + "' needs a callback");
   if (auto ok = check(qos); !ok) return ok.error();
+  auto subscriber = partition_parent(participant.handle(), qos, false);
+  if (!subscriber) return subscriber.error();
   auto topic = create_raw_topic(participant.handle(), topic_name, type_name);
-  if (!topic) return topic.error();
+  if (!topic) {
+    if (subscriber.value() > 0) dds_delete(subscriber.value());
+    return topic.error();
+  }
 
   auto state = std::make_unique<State>();
   state->callback = std::move(callback);
   std::unique_ptr<RawReader> reader(new RawReader(std::move(state)));
   reader->topic_ = topic.value();
+  reader->subscriber_ = subscriber.value();
 
   dds_listener_t* listener = dds_create_listener(reader->state_.get());
   dds_lset_data_available(listener, on_data_available);
   const QosPtr dds_qos = to_dds(qos);
-  const dds_entity_t handle =
-      dds_create_reader(participant.handle(), topic.value(), dds_qos.get(), listener);
+  const dds_entity_t parent = reader->subscriber_ > 0 ? reader->subscriber_ : participant.handle();
+  const dds_entity_t handle = dds_create_reader(parent, topic.value(), dds_qos.get(), listener);
   dds_delete_listener(listener);
   if (handle < 0) {
-    dds_delete(topic.value());
-    reader->topic_ = 0;
-    return sdk_error("creating a reader on topic '" + topic_name + "'", handle);
+    return sdk_error("creating a reader on topic '" + topic_name + "'", handle);  // the destructor cleans up
   }
   reader->reader_ = handle;
   return reader;
@@ -492,6 +534,7 @@ Result<std::unique_ptr<RawReader>> RawReader::create(Participant& participant,
 RawReader::~RawReader() {
   if (reader_ > 0) dds_delete(reader_);  // returns once no listener call is running
   if (topic_ > 0) dds_delete(topic_);
+  if (subscriber_ > 0) dds_delete(subscriber_);
 }
 
 std::int32_t RawReader::matched_writers() const noexcept {

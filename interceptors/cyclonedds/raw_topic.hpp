@@ -16,6 +16,7 @@
 // process).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -23,6 +24,7 @@
 #include <string>
 
 #include "polyport/clock.hpp"
+#include "polyport/profile.hpp"
 #include "polyport/result.hpp"
 #include "polyport/status.hpp"
 
@@ -30,19 +32,11 @@ struct ddsi_sertype;
 
 namespace polyport::cyclonedds {
 
-// Defaults: reliable, volatile, keep_last 10 (ROS 2's default profile). Readers too are
-// reliable by default here (DDS makes them best-effort), so a raw reader gets every sample
-// of a reliable writer; it does not match best-effort writers (requested reliable, offered
-// best-effort), so a reader for those must ask for best_effort.
-struct Qos {
-  enum class Reliability : std::uint8_t { best_effort, reliable };
-  enum class Durability : std::uint8_t { volatile_, transient_local };
-  enum class History : std::uint8_t { keep_last, keep_all };
-  Reliability reliability = Reliability::reliable;
-  Durability durability = Durability::volatile_;
-  History history = History::keep_last;
-  std::int32_t depth = 10;  // keep_last only
-};
+// Endpoint QoS: polyport's DdsQos (profile.hpp), every field mapped onto Cyclone's. Readers
+// are reliable by default here too (DDS makes them best-effort), so a raw reader gets every
+// sample of a reliable writer; it does not match best-effort writers (requested reliable,
+// offered best-effort), so a reader for those must ask for best_effort.
+using Qos = DdsQos;
 
 // A DDS domain participant. The configuration is Cyclone XML (what CYCLONEDDS_URI holds):
 // either the XML text itself (starting with '<') or a file name ("file://" optional). Empty:
@@ -89,9 +83,13 @@ class RawWriter {
   // How many readers match (remote and local); -1 when Cyclone cannot tell.
   std::int32_t matched_readers() const noexcept;
   std::int32_t handle() const noexcept { return writer_; }
+  // The writer's RTPS GUID (prefix, then entity id), as readers see it.
+  std::array<std::uint8_t, 16> guid() const noexcept;
 
  private:
-  RawWriter(std::int32_t topic, std::int32_t writer) : topic_(topic), writer_(writer) {}
+  RawWriter(std::int32_t publisher, std::int32_t topic, std::int32_t writer)
+      : publisher_(publisher), topic_(topic), writer_(writer) {}
+  std::int32_t publisher_;  // 0: the participant's implicit publisher
   std::int32_t topic_;
   std::int32_t writer_;
 };
@@ -123,6 +121,7 @@ class RawReader {
  private:
   explicit RawReader(std::unique_ptr<State> state);
   std::unique_ptr<State> state_;
+  std::int32_t subscriber_ = 0;  // 0: the participant's implicit subscriber
   std::int32_t topic_ = 0;
   std::int32_t reader_ = 0;
 };

@@ -14,7 +14,8 @@
 
 #include "../support/engine_fixture.hpp"
 #include "../support/eventually.hpp"
-#include "cyclonedds_model.hpp"
+#include "cyclonedds_domain.hpp"
+#include "dds_model.hpp"
 #include "dds/dds.h"
 #include "polyport/engine.hpp"
 
@@ -35,7 +36,8 @@ using test::subscription_matches;
 class CycloneEngineTest : public test::EngineFixture {
  protected:
   CycloneEngineTest() : EngineFixture(POLYPORT_TEST_DATA "/cyclonedds", LoadOptions{}) {
-    models.add(std::make_unique<cyclonedds::CycloneModel>());
+    models.add(std::make_unique<dds::DdsModel>("cyclonedds", cyclonedds::make_cyclonedds_domain,
+                                                 cyclonedds::default_config()));
   }
 };
 

@@ -24,6 +24,10 @@
 namespace polyport {
 
 class TypeRegistry;
+struct OperationInfo;
+
+// A service port's operations with their types looked up (null: no payload); for adaptors.
+std::vector<OperationInfo> operations_of(const PortSpec& spec, const TypeRegistry& types);
 
 // What a lifecycle-aware interceptor reports about one of its components.
 struct InterceptorStatus {

@@ -30,7 +30,33 @@ struct OperationSpec {
   std::string request_type;  // empty: no request payload
   std::string reply_type;    // empty: no reply payload
   bool oneway = false;       // `send`: no reply at all
+  // DDS models: the structs on the request and reply topics (a correlation header, then the
+  // payload; see docs/PROFILES.md). Empty for other models.
+  std::string dds_request_type;
+  std::string dds_reply_type;
   SourceLocation where;
+};
+
+// DDS endpoint QoS (DDS models). The defaults are ROS 2's default profile, which is also what
+// idlc / fastddsgen example applications use: reliable, volatile, keep_last 10, no deadline,
+// infinite lifespan, automatic liveliness with an infinite lease, the default partition.
+// A component's <dds><qos> sets its ports' QoS; a port's <qos> overrides it field by field.
+struct DdsQos {
+  enum class Reliability : std::uint8_t { best_effort, reliable };
+  enum class Durability : std::uint8_t { volatile_, transient_local };
+  enum class History : std::uint8_t { keep_last, keep_all };
+  enum class Liveliness : std::uint8_t { automatic, manual_by_participant, manual_by_topic };
+  Reliability reliability = Reliability::reliable;
+  Durability durability = Durability::volatile_;
+  History history = History::keep_last;
+  std::int32_t depth = 10;                 // keep_last only
+  std::optional<std::int64_t> deadline_ns;  // nullopt: infinite
+  std::optional<std::int64_t> lifespan_ns;  // nullopt: infinite
+  Liveliness liveliness = Liveliness::automatic;
+  std::optional<std::int64_t> lease_ns;     // nullopt: infinite
+  std::vector<std::string> partitions;      // empty: the default ("") partition
+
+  bool operator==(const DdsQos&) const = default;
 };
 
 struct PortSpec {
@@ -42,7 +68,9 @@ struct PortSpec {
   std::vector<OperationSpec> operations;  // service ports
   std::optional<QueuePolicy> policy;   // input data/event ports: reading-side policy
   std::optional<std::uint32_t> depth;  // buffer/circular depth
-  std::string topic;                   // DDS models, data ports: the topic (empty: the port name)
+  std::string topic;                   // DDS models: the topic (service ports: the base of the
+                                       // request/reply topics); empty: the port name
+  DdsQos qos;                          // DDS models: the component's <dds><qos>, then the port's
   SourceLocation where;
 };
 
@@ -75,6 +103,9 @@ struct ComponentProfile {
   // (for Cyclone: CYCLONEDDS_URI from the environment).
   std::uint32_t dds_domain = 0;
   std::optional<std::filesystem::path> dds_config;
+  DdsQos dds_qos;                        // <dds><qos>: the default of every port
+  std::uint32_t dds_max_calls_in_flight = 16;  // per service port, both directions
+  std::int64_t dds_call_timeout_ns = 1'000'000'000;  // a DDS provider's reply, at most
   SourceLocation dds_where;
   InitialState initial_state = InitialState::active;  // OPRoS lifecycle_type start|stop
   std::vector<PropertySpec> properties;

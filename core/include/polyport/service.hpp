@@ -33,6 +33,21 @@ struct OperationInfo {
   bool oneway = false;
 };
 
+class PendingCall;
+class RequiredServicePort;
+
+// Told of the end of an asynchronous call (RequiredServicePort::request_async), exactly once,
+// on whichever thread completes it (the provider's, or the caller's own when the provider
+// runs or refuses it at once). `call.reply` / `call.reply_size` hold the reply when status is
+// ok; they are valid only during the call, after which the slot goes back to the pool.
+class CallObserver {
+ public:
+  virtual void on_call_complete(const PendingCall& call, Status status, std::uint64_t tag) noexcept = 0;
+
+ protected:
+  ~CallObserver() = default;
+};
+
 class PendingCall {
  public:
   enum class State : std::uint8_t { free, in_flight, done, abandoned };
@@ -52,6 +67,10 @@ class PendingCall {
   friend class RequiredServicePort;
   std::atomic<State> state_{State::free};
   Status status_ = Status::ok;
+  RequiredServicePort* owner_ = nullptr;
+  CallObserver* observer_ = nullptr;  // set for asynchronous calls with an observer
+  std::uint64_t tag_ = 0;
+  MonoTime started_;
   std::mutex mutex_;
   std::condition_variable done_;
   std::unique_ptr<std::byte[]> request_storage_;
@@ -154,6 +173,13 @@ class RequiredServicePort final : public Port {
   void cancel(CallHandle& handle) noexcept;
   // One-way send: no reply, no wait.
   Status send(std::string_view operation, const void* request, std::uint32_t request_size);
+  // Asynchronous call without a waiting thread: `observer` is told of its end with `tag`.
+  // Returns ok when the call reached the provider: the observer is then called exactly once
+  // (maybe before this returns), also when the provider refused it. Otherwise returns why
+  // (not_connected, unknown_operation, bad_size, too_many_calls) and the observer is not
+  // called. Allocates nothing, takes no lock of its own (the provider's dispatch may).
+  Status request_async(std::string_view operation, const void* request, std::uint32_t request_size,
+                       CallObserver& observer, std::uint64_t tag) noexcept;
 
   const std::string& service_type() const noexcept { return service_type_; }
   const std::vector<OperationInfo>& operations() const noexcept { return operations_; }
@@ -167,8 +193,11 @@ class RequiredServicePort final : public Port {
   const LatencyHistogram& latency() const noexcept { return latency_; }
 
  private:
-  PendingCall* acquire(std::string_view operation, const void* request,
-                       std::uint32_t request_size, bool wants_reply, Status& status) noexcept;
+  friend class PendingCall;
+  PendingCall* acquire(std::string_view operation, const void* request, std::uint32_t request_size,
+                       bool wants_reply, Status& status, CallObserver* observer = nullptr,
+                       std::uint64_t tag = 0) noexcept;
+  void finish_async(PendingCall& call, Status status) noexcept;
   void release(PendingCall& call) noexcept;
   Status finish(PendingCall& call, void* reply, std::uint32_t reply_capacity,
                 std::uint32_t* reply_size) noexcept;

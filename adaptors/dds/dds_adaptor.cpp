@@ -1,0 +1,200 @@
+#include "dds_adaptor.hpp"
+
+#include <algorithm>
+
+#include "polyport/model.hpp"
+
+namespace polyport::dds {
+
+namespace {
+
+constexpr std::string_view kRequestHeader = "polyport::rpc::RequestHeader";
+constexpr std::string_view kReplyHeader = "polyport::rpc::ReplyHeader";
+
+// Unbounded strings and sequences live in a sample's tail, which a service call does not
+// carry (a call's payload is the type's fixed part).
+bool has_tail(const Type& type) {
+  const Type& t = type.resolved();
+  switch (t.kind) {
+    case TypeKind::string:
+    case TypeKind::sequence:
+      if (t.bound == 0) return true;
+      return t.element != nullptr && has_tail(*t.element);
+    case TypeKind::array:
+      return t.element != nullptr && has_tail(*t.element);
+    case TypeKind::structure:
+      return std::any_of(t.fields.begin(), t.fields.end(), [](const Field& f) { return has_tail(*f.type); });
+    default:
+      return false;
+  }
+}
+
+const Type* struct_of(const Type* type) {
+  if (type == nullptr) return nullptr;
+  const Type& t = type->resolved();
+  return t.kind == TypeKind::structure ? &t : nullptr;
+}
+
+}  // namespace
+
+std::string dds_type_name(const std::string& registry_name) {
+  return registry_name.rfind("::", 0) == 0 ? registry_name.substr(2) : registry_name;
+}
+
+std::unique_ptr<DdsAdaptor> DdsAdaptor::create(const Subcomponent& subcomponent, const TypeRegistry& types,
+                                               Diagnostics& diagnostics) {
+  const ComponentProfile& profile = subcomponent.profile;
+  auto adaptor = std::make_unique<DdsAdaptor>(subcomponent.name, profile.model);
+  adaptor->max_calls_in_flight_ = profile.dds_max_calls_in_flight;
+  adaptor->call_timeout_ns_ = profile.dds_call_timeout_ns;
+  bool ok = true;
+  for (const PortSpec& spec : profile.ports) {
+    switch (spec.kind) {
+      case PortKind::data:
+        ok = adaptor->add_data_port(spec, types, diagnostics) && ok;
+        break;
+      case PortKind::service:
+        ok = adaptor->add_service_port(spec, types, diagnostics) && ok;
+        break;
+      case PortKind::event:
+        diagnostics.error(spec.where, {},
+                          "port '" + spec.name + "': model '" + profile.model +
+                              "' has no event ports (DDS has topics: use a data port)");
+        ok = false;
+        break;
+    }
+  }
+  if (!ok) return nullptr;
+  return adaptor;
+}
+
+const Codec* DdsAdaptor::codec_for(const Type& type, const PortSpec& spec, Diagnostics& diagnostics) {
+  Result<std::unique_ptr<Codec>> codec = make_cdr_codec(type, WireFormat::xcdr1);
+  if (!codec) {
+    diagnostics.error(spec.where, {},
+                      "port '" + spec.name + "': type '" + type.name + "' cannot be carried as XCDR1: " +
+                          codec.error().message);
+    return nullptr;
+  }
+  codecs_.push_back(std::move(codec).value());
+  return codecs_.back().get();
+}
+
+bool DdsAdaptor::add_data_port(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics) {
+  const Type* type = types.find(spec.data_type);
+  if (!type) {
+    diagnostics.error(spec.where, {}, "unknown type '" + spec.data_type + "'");
+    return false;
+  }
+  const Codec* codec = codec_for(*type, spec, diagnostics);
+  if (codec == nullptr) return false;
+  const std::uint32_t max_bytes = std::min(codec->max_wire_size(type->size + kTailBytes), kMaxSampleBytes);
+
+  Topic topic;
+  topic.topic = spec.topic.empty() ? spec.name : spec.topic;
+  topic.type_name = dds_type_name(spec.data_type);
+  topic.qos = spec.qos;
+  topic.max_size = max_bytes;
+  if (spec.direction == PortDirection::output) {
+    topic.out = &add_port<DataOutPort>(spec.name, spec.kind, type, max_bytes);
+    topic.out->set_wire_format(WireFormat::xcdr1, codec);
+  } else {
+    // Push mode: the interceptor sets the sink; policy and depth are not used.
+    topic.in = &add_port<DataInPort>(spec.name, spec.kind, type, max_bytes, QueuePolicy::data, 1U);
+    topic.in->set_wire_format(WireFormat::xcdr1, codec);
+  }
+  topics_.push_back(std::move(topic));
+  return true;
+}
+
+bool DdsAdaptor::add_service_port(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics) {
+  Service service;
+  service.base_topic = spec.topic.empty() ? spec.name : spec.topic;
+  service.qos = spec.qos;
+  bool ok = true;
+  for (const OperationSpec& op : spec.operations) {
+    Operation operation;
+    operation.name = op.name;
+    operation.oneway = op.oneway;
+    ok = rpc_layout(spec, op, false, types, diagnostics, operation.request) && ok;
+    if (!op.oneway) ok = rpc_layout(spec, op, true, types, diagnostics, operation.reply) && ok;
+    service.operations.push_back(std::move(operation));
+  }
+  if (spec.operations.empty()) {
+    diagnostics.error(spec.where, {},
+                      "service port '" + spec.name + "': a DDS service port lists its operations (each one is a "
+                      "request and a reply topic)");
+    ok = false;
+  }
+  if (!ok) return false;
+  if (spec.direction == PortDirection::provided) {
+    service.provided = &add_port<ProvidedServicePort>(spec.name, spec.service_type, operations_of(spec, types));
+  } else {
+    service.required = &add_port<RequiredServicePort>(spec.name, spec.service_type, operations_of(spec, types),
+                                                      max_calls_in_flight_);
+  }
+  services_.push_back(std::move(service));
+  return true;
+}
+
+bool DdsAdaptor::rpc_layout(const PortSpec& spec, const OperationSpec& op, bool reply, const TypeRegistry& types,
+                            Diagnostics& diagnostics, RpcLayout& layout) {
+  const std::string& wire_name = reply ? op.dds_reply_type : op.dds_request_type;
+  const std::string& payload_name = reply ? op.reply_type : op.request_type;
+  const std::string_view header_name = reply ? kReplyHeader : kRequestHeader;
+  const std::string what = "operation '" + op.name + "' of port '" + spec.name + "': " +
+                           (reply ? "dds_reply" : "dds_request") + " '" + wire_name + "'";
+  auto fail = [&](const std::string& message) {
+    diagnostics.error(op.where, {}, what + " " + message);
+    return false;
+  };
+
+  const Type* wire = struct_of(types.find(wire_name));
+  if (wire == nullptr) return fail("is not a struct");
+  const std::string shape = "{ " + std::string(header_name) + " header;" +
+                            (payload_name.empty() ? std::string() : " " + payload_name + " <member>;") + " }";
+  const std::size_t members = payload_name.empty() ? 1 : 2;
+  if (wire->fields.size() != members) return fail("must be " + shape);
+  const Type* header = struct_of(wire->fields[0].type);
+  if (header == nullptr || header->name != header_name) {
+    return fail("must start with a " + std::string(header_name) + " (config/types/polyport_rpc.idl); expected " +
+                shape);
+  }
+  // The header as polyport_rpc.idl declares it: SampleIdentity first, then (replies) status.
+  const Type* identity = header->fields.empty() ? nullptr : struct_of(header->fields[0].type);
+  const bool identity_ok = identity != nullptr && identity->fields.size() == 2 &&
+                           identity->fields[0].type->size == 16 &&
+                           identity->fields[1].type->resolved().kind == TypeKind::uint64;
+  const bool status_ok = !reply || (header->fields.size() == 2 &&
+                                    header->fields[1].type->resolved().kind == TypeKind::int32);
+  if (!identity_ok || !status_ok) {
+    return fail("has a " + std::string(header_name) + " that is not the one in config/types/polyport_rpc.idl");
+  }
+  if (members == 2) {
+    const Type* payload = types.find(payload_name);
+    if (payload == nullptr || &wire->fields[1].type->resolved() != &payload->resolved()) {
+      return fail("must be " + shape + " (its second member is a '" + wire->fields[1].type->name + "')");
+    }
+    if (has_tail(*payload)) {
+      return fail("carries '" + payload_name +
+                  "', which has an unbounded string or sequence; service payloads must be bounded");
+    }
+    layout.body_offset = wire->fields[1].offset;
+    layout.body_size = payload->size;
+  }
+  const std::uint32_t header_offset = wire->fields[0].offset;
+  const std::uint32_t identity_offset = header_offset + header->fields[0].offset;
+  layout.guid_offset = identity_offset + identity->fields[0].offset;
+  layout.sequence_offset = identity_offset + identity->fields[1].offset;
+  if (reply) layout.status_offset = header_offset + header->fields[1].offset;
+
+  layout.type = wire;
+  layout.type_name = dds_type_name(wire->name);
+  layout.topic = (spec.topic.empty() ? spec.name : spec.topic) + "/" + op.name + (reply ? "/reply" : "/request");
+  layout.codec = codec_for(*wire, spec, diagnostics);
+  if (layout.codec == nullptr) return false;
+  layout.max_size = std::min(layout.codec->max_wire_size(wire->size), kMaxSampleBytes);
+  return true;
+}
+
+}  // namespace polyport::dds

@@ -1,0 +1,110 @@
+// The application-side face of a DDS component, for both DDS models (cyclonedds, fastdds):
+// the bytes on the DDS wire are the same XCDR1 whichever SDK carries them, so one adaptor
+// serves both and a connection between two DDS ports of one type is a passthrough, across
+// vendors and domains alike.
+//
+//  - data ports: one per topic, typed from the registry, speaking XCDR1 (encapsulation header
+//    included); a connection to an in-process port decodes/encodes on the forwarding path.
+//  - service ports: one per service, with a request and a reply topic per operation
+//    (`<topic>/<operation>/request` and `.../reply`) whose structs put a correlation header
+//    (config/types/polyport_rpc.idl) before the payload. The adaptor checks those structs and
+//    records where the header fields and the payload sit; the interceptor's service bridge
+//    (interceptors/dds/dds_service.hpp) does the calls.
+//
+// Ownership: the adaptor owns its ports and codecs (ports keep raw pointers to them).
+// Directions are the DDS application's view: an `output` port carries what the application
+// publishes (the interceptor's reader writes it), an `input` port what polyport publishes for
+// it (the interceptor's writer is the port's sink); a `provided` service port is served by the
+// DDS application, a `required` one calls into the application.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "polyport/codec.hpp"
+#include "polyport/component.hpp"
+#include "polyport/diagnostics.hpp"
+#include "polyport/profile.hpp"
+#include "polyport/service.hpp"
+#include "polyport/types.hpp"
+
+namespace polyport::dds {
+
+class DdsAdaptor final : public Component {
+ public:
+  // One DDS topic of a data port.
+  struct Topic {
+    std::string topic;      // DDS topic name
+    std::string type_name;  // DDS type name, as idlc / fastddsgen spell it ("module::Struct")
+    DdsQos qos;
+    std::uint32_t max_size = 0;  // largest encoded sample, header included
+    DataOutPort* out = nullptr;  // set for `output` ports (the application publishes)
+    DataInPort* in = nullptr;    // set for `input` ports (polyport publishes)
+  };
+
+  // Where the parts of one request or reply struct sit in its flat sample.
+  struct RpcLayout {
+    const Type* type = nullptr;  // the struct on the topic (dds_request / dds_reply)
+    std::string type_name;       // its DDS type name
+    std::string topic;
+    const Codec* codec = nullptr;  // XCDR1
+    std::uint32_t max_size = 0;    // largest encoded sample
+    std::uint32_t guid_offset = 0;      // SampleIdentity.writer_guid (octet[16])
+    std::uint32_t sequence_offset = 0;  // SampleIdentity.sequence_number (uint64)
+    std::uint32_t status_offset = 0;    // ReplyHeader.status (int32); replies only
+    std::uint32_t body_offset = 0;      // the payload member
+    std::uint32_t body_size = 0;        // 0: no payload
+  };
+
+  struct Operation {
+    std::string name;
+    bool oneway = false;
+    RpcLayout request;
+    RpcLayout reply;  // type null when oneway
+  };
+
+  struct Service {
+    std::string base_topic;
+    DdsQos qos;
+    ProvidedServicePort* provided = nullptr;  // the DDS application serves the calls
+    RequiredServicePort* required = nullptr;  // the DDS application makes the calls
+    std::vector<Operation> operations;        // in the port's operation order
+  };
+
+  // Samples larger than this (encoded) are not carried.
+  static constexpr std::uint32_t kMaxSampleBytes = 1U << 20;
+  // Room for unbounded strings and sequences beyond a type's fixed part.
+  static constexpr std::uint32_t kTailBytes = 64U << 10;
+
+  DdsAdaptor(std::string name, std::string model) : Component(std::move(name), std::move(model)) {}
+
+  // Creates the profile's ports with their codecs. Problems are reported at the profile's
+  // locations; returns null when there was one.
+  static std::unique_ptr<DdsAdaptor> create(const Subcomponent& subcomponent, const TypeRegistry& types,
+                                            Diagnostics& diagnostics);
+
+  const std::vector<Topic>& topics() const noexcept { return topics_; }
+  const std::vector<Service>& services() const noexcept { return services_; }
+  std::uint32_t max_calls_in_flight() const noexcept { return max_calls_in_flight_; }
+  std::int64_t call_timeout_ns() const noexcept { return call_timeout_ns_; }
+
+ private:
+  bool add_data_port(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics);
+  bool add_service_port(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics);
+  // Checks one request/reply struct against the convention and fills `layout`.
+  bool rpc_layout(const PortSpec& spec, const OperationSpec& operation, bool reply, const TypeRegistry& types,
+                  Diagnostics& diagnostics, RpcLayout& layout);
+  const Codec* codec_for(const Type& type, const PortSpec& spec, Diagnostics& diagnostics);
+
+  std::vector<Topic> topics_;
+  std::vector<Service> services_;
+  std::vector<std::unique_ptr<Codec>> codecs_;
+  std::uint32_t max_calls_in_flight_ = 16;
+  std::int64_t call_timeout_ns_ = 1'000'000'000;
+};
+
+// The DDS type name for a registry name: without a leading "::".
+std::string dds_type_name(const std::string& registry_name);
+
+}  // namespace polyport::dds

@@ -1,0 +1,68 @@
+#include "cyclonedds_domain.hpp"
+
+#include "raw_topic.hpp"
+
+namespace polyport::cyclonedds {
+
+namespace {
+
+class CycloneWriter final : public dds::Writer {
+ public:
+  explicit CycloneWriter(std::unique_ptr<RawWriter> writer) : writer_(std::move(writer)) {}
+  Status write(const std::byte* cdr, std::uint32_t size) noexcept override { return writer_->write(cdr, size); }
+  std::int32_t matched_readers() const noexcept override { return writer_->matched_readers(); }
+  dds::Guid guid() const noexcept override { return writer_->guid(); }
+
+ private:
+  std::unique_ptr<RawWriter> writer_;
+};
+
+// Callbacks of one reader do not overlap: Cyclone calls a reader's data-available listener
+// from one thread at a time (its delivery thread for remote data; for data written in this
+// process, the writer's thread, under the reader's listener lock).
+class CycloneReader final : public dds::Reader {
+ public:
+  explicit CycloneReader(std::unique_ptr<RawReader> reader) : reader_(std::move(reader)) {}
+  std::int32_t matched_writers() const noexcept override { return reader_->matched_writers(); }
+  std::uint64_t received() const noexcept override { return reader_->received(); }
+  // A raw sertype takes any bytes: nothing is refused before the callback.
+  std::uint64_t refused() const noexcept override { return 0; }
+
+ private:
+  std::unique_ptr<RawReader> reader_;
+};
+
+class CycloneDomain final : public dds::Domain {
+ public:
+  explicit CycloneDomain(std::unique_ptr<Participant> participant) : participant_(std::move(participant)) {}
+  std::string_view vendor() const noexcept override { return "cyclonedds"; }
+  std::uint32_t id() const noexcept override { return participant_->domain_id(); }
+
+  Result<std::unique_ptr<dds::Writer>> create_writer(const dds::EndpointSpec& spec) override {
+    auto writer = RawWriter::create(*participant_, spec.topic, spec.type_name, spec.qos);
+    if (!writer) return writer.error();
+    return std::unique_ptr<dds::Writer>(std::make_unique<CycloneWriter>(std::move(writer).value()));
+  }
+
+  Result<std::unique_ptr<dds::Reader>> create_reader(const dds::EndpointSpec& spec,
+                                                     dds::ReceiveCallback callback) override {
+    auto reader = RawReader::create(*participant_, spec.topic, spec.type_name, std::move(callback), spec.qos);
+    if (!reader) return reader.error();
+    return std::unique_ptr<dds::Reader>(std::make_unique<CycloneReader>(std::move(reader).value()));
+  }
+
+ private:
+  std::unique_ptr<Participant> participant_;
+};
+
+}  // namespace
+
+std::string default_config() { return POLYPORT_CYCLONE_DEFAULT_CONFIG; }
+
+Result<std::unique_ptr<dds::Domain>> make_cyclonedds_domain(std::uint32_t domain_id, const std::string& config) {
+  auto participant = Participant::create(domain_id, config);
+  if (!participant) return participant.error();
+  return std::unique_ptr<dds::Domain>(std::make_unique<CycloneDomain>(std::move(participant).value()));
+}
+
+}  // namespace polyport::cyclonedds

@@ -1,0 +1,145 @@
+#include "dds_interceptor.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include "polyport/component_api.hpp"
+
+namespace polyport::dds {
+
+Status DdsInterceptor::TopicSink::on_sample(const std::byte* data, const SampleMeta& meta) noexcept {
+  Writer* w = writer.load(std::memory_order_acquire);
+  if (w == nullptr) return Status::not_active;
+  return w->write(data, meta.size);
+}
+
+DdsInterceptor::DdsInterceptor(DdsAdaptor& adaptor, std::shared_ptr<Domain> domain, std::string config)
+    : adaptor_(adaptor), domain_(std::move(domain)), config_(std::move(config)) {
+  for (const DdsAdaptor::Topic& topic : adaptor_.topics()) {
+    if (topic.in != nullptr) {
+      sinks_.push_back(std::make_unique<TopicSink>());
+      topic.in->set_sink(sinks_.back().get());  // before wiring: the connection is push mode
+    } else {
+      sinks_.push_back(nullptr);
+    }
+  }
+  for (const DdsAdaptor::Service& service : adaptor_.services()) {
+    if (service.provided != nullptr) {
+      servers_.push_back(
+          std::make_unique<ServiceServer>(service, adaptor_.max_calls_in_flight(), adaptor_.call_timeout_ns()));
+    } else {
+      clients_.push_back(std::make_unique<ServiceClient>(service, adaptor_.max_calls_in_flight()));
+    }
+  }
+}
+
+DdsInterceptor::~DdsInterceptor() {
+  stop();
+  retired_.clear();
+}
+
+Result<void> DdsInterceptor::start() {
+  if (active_) return {};
+  const auto& topics = adaptor_.topics();
+  readers_.resize(topics.size());
+  writers_.resize(topics.size());
+  auto fail = [this](const std::string& port, const std::string& message) {
+    stop();
+    return make_error(adaptor_.name() + "." + port + ": " + message);
+  };
+  for (std::size_t i = 0; i < topics.size(); ++i) {
+    const DdsAdaptor::Topic& topic = topics[i];
+    const EndpointSpec spec{topic.topic, topic.type_name, topic.qos, topic.max_size};
+    if (topic.out != nullptr) {
+      DataOutPort* port = topic.out;
+      auto reader = domain_->create_reader(spec, [port](const std::byte* cdr, std::uint32_t size, MonoTime source) {
+        (void)port->write(cdr, size, source);
+      });
+      if (!reader) return fail(port->name(), reader.error().message);
+      readers_[i] = std::move(reader).value();
+    } else {
+      auto writer = domain_->create_writer(spec);
+      if (!writer) return fail(topic.in->name(), writer.error().message);
+      writers_[i] = std::move(writer).value();
+      sinks_[i]->writer.store(writers_[i].get(), std::memory_order_release);
+    }
+  }
+  for (auto& server : servers_) {
+    if (auto started = server->start(*domain_); !started) return fail("service", started.error().message);
+  }
+  for (auto& client : clients_) {
+    if (auto started = client->start(*domain_); !started) return fail("service", started.error().message);
+  }
+  active_ = true;
+  return {};
+}
+
+void DdsInterceptor::stop() noexcept {
+  for (auto& client : clients_) client->stop();
+  for (auto& server : servers_) server->stop();
+  for (auto& reader : readers_) reader.reset();
+  for (std::size_t i = 0; i < writers_.size(); ++i) {
+    if (sinks_[i]) sinks_[i]->writer.store(nullptr, std::memory_order_release);
+    if (writers_[i]) retired_.push_back(std::move(writers_[i]));
+  }
+  readers_.clear();
+  writers_.clear();
+  active_ = false;
+}
+
+ReturnCode DdsInterceptor::command(LifecycleCommand command) {
+  switch (command) {
+    case LifecycleCommand::initialize:
+    case LifecycleCommand::activate:
+      return start() ? ReturnCode::ok : ReturnCode::error;
+    case LifecycleCommand::deactivate:
+    case LifecycleCommand::finalize:
+      stop();
+      return ReturnCode::ok;
+    case LifecycleCommand::reset:
+    case LifecycleCommand::recover:
+      return ReturnCode::unsupported;
+  }
+  return ReturnCode::unsupported;
+}
+
+InterceptorStatus DdsInterceptor::status() const {
+  // Samples the SDK refused are counted by the connections (dropped_sink_error).
+  return InterceptorStatus{active_ ? "active" : "inactive", 0, 0};
+}
+
+void DdsInterceptor::describe(nlohmann::json& out) const {
+  nlohmann::json topics = nlohmann::json::array();
+  const auto& list = adaptor_.topics();
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const DdsAdaptor::Topic& topic = list[i];
+    nlohmann::json t{{"port", topic.out ? topic.out->name() : topic.in->name()},
+                     {"topic", topic.topic},
+                     {"type", topic.type_name},
+                     {"polyport", topic.out ? "reads" : "writes"}};
+    if (i < readers_.size() && readers_[i]) {
+      t["matched_writers"] = readers_[i]->matched_writers();
+      t["received"] = readers_[i]->received();
+      t["refused"] = readers_[i]->refused();
+    }
+    if (i < writers_.size() && writers_[i]) t["matched_readers"] = writers_[i]->matched_readers();
+    topics.push_back(std::move(t));
+  }
+  nlohmann::json services = nlohmann::json::array();
+  for (const auto& server : servers_) {
+    nlohmann::json s;
+    server->describe(s);
+    services.push_back(std::move(s));
+  }
+  for (const auto& client : clients_) {
+    nlohmann::json s;
+    client->describe(s);
+    services.push_back(std::move(s));
+  }
+  out["dds"] = {{"vendor", domain_->vendor()},
+                {"domain", domain_->id()},
+                {"config", config_},
+                {"topics", std::move(topics)},
+                {"services", std::move(services)}};
+}
+
+}  // namespace polyport::dds

@@ -1,0 +1,43 @@
+#include "dds_model.hpp"
+
+#include "dds_adaptor.hpp"
+#include "dds_interceptor.hpp"
+
+namespace polyport::dds {
+
+std::optional<Proxy> DdsModel::create_proxy(const Subcomponent& sub, ModelContext& context,
+                                             Diagnostics& diagnostics) {
+  const ComponentProfile& profile = sub.profile;
+  const std::string config = profile.dds_config ? profile.dds_config->string() : default_config_;
+  const SourceLocation where = profile.dds_where.line != 0 ? profile.dds_where : profile.where;
+
+  // Ports first: a profile with bad ports does not join a domain.
+  std::unique_ptr<DdsAdaptor> adaptor = DdsAdaptor::create(sub, context.types, diagnostics);
+  if (!adaptor) return std::nullopt;
+
+  DomainEntry& entry = domains_[profile.dds_domain];
+  std::shared_ptr<Domain> domain = entry.domain.lock();
+  if (domain && entry.config != config) {
+    diagnostics.error(where, "/component_profile/dds/config",
+                      "DDS domain " + std::to_string(profile.dds_domain) + " of model '" + name_ +
+                          "' is already configured with '" + entry.config + "' in this process; '" + config +
+                          "' cannot be used for it too");
+    return std::nullopt;
+  }
+  if (!domain) {
+    auto created = factory_(profile.dds_domain, config);
+    if (!created) {
+      diagnostics.error(where, "/component_profile/dds",
+                        "cannot join DDS domain " + std::to_string(profile.dds_domain) + " (" + name_ +
+                            "): " + created.error().message);
+      return std::nullopt;
+    }
+    domain = std::shared_ptr<Domain>(std::move(created).value());
+    entry.domain = domain;
+    entry.config = config;
+  }
+  auto interceptor = std::make_unique<DdsInterceptor>(*adaptor, std::move(domain), config);
+  return Proxy{std::move(adaptor), std::move(interceptor)};
+}
+
+}  // namespace polyport::dds
