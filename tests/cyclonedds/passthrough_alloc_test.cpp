@@ -1,0 +1,204 @@
+// Zero heap allocations per forwarded sample on the DDS passthrough path, against Cyclone DDS:
+// polyport bridges domain 146 to 147 (tests/data/cyclonedds/alloc_app.xml); an idlc-generated
+// writer publishes, an idlc-generated reader takes. This binary interposes malloc and
+// counts, on each thread, only while that thread is inside polyport's part of the path: from
+// entering polyport's reader callback to calling the SDK's write, and from that write's return
+// to the callback's end (a wrapping Domain switches counting on and off at those edges). The
+// SDK's own allocations are counted apart and reported, not asserted: they are Cyclone's.
+#include <gtest/gtest.h>
+
+#include "generated_peer.hpp"
+
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <nlohmann/json.hpp>
+
+#include "../support/engine_fixture.hpp"
+#include "../support/eventually.hpp"
+#include "cyclonedds_domain.hpp"
+#include "dds_model.hpp"
+
+// Counting at malloc itself (glibc's entry points, interposed), so C code (Cyclone) and C++
+// code (operator new goes through malloc) are both seen.
+extern "C" {
+void* __libc_malloc(std::size_t size);
+void* __libc_calloc(std::size_t count, std::size_t size);
+void* __libc_realloc(void* pointer, std::size_t size);
+void* __libc_memalign(std::size_t alignment, std::size_t size);
+}
+
+namespace {
+std::atomic<std::uint64_t> g_polyport_allocations{0};
+std::atomic<std::uint64_t> g_all_allocations{0};
+thread_local bool t_in_polyport = false;
+
+void count() noexcept {
+  g_all_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (t_in_polyport) g_polyport_allocations.fetch_add(1, std::memory_order_relaxed);
+}
+}  // namespace
+
+extern "C" {
+void* malloc(std::size_t size) {
+  count();
+  return __libc_malloc(size);
+}
+void* calloc(std::size_t count_, std::size_t size) {
+  count();
+  return __libc_calloc(count_, size);
+}
+void* realloc(void* pointer, std::size_t size) {
+  count();
+  return __libc_realloc(pointer, size);
+}
+void* aligned_alloc(std::size_t alignment, std::size_t size) {
+  count();
+  return __libc_memalign(alignment, size);
+}
+void* memalign(std::size_t alignment, std::size_t size) {
+  count();
+  return __libc_memalign(alignment, size);
+}
+int posix_memalign(void** out, std::size_t alignment, std::size_t size) {
+  count();
+  void* p = __libc_memalign(alignment, size);
+  if (p == nullptr) return ENOMEM;
+  *out = p;
+  return 0;
+}
+}
+
+namespace polyport {
+namespace {
+
+using test::eventually;
+
+// Marks polyport's part of the path for the counter.
+class Scope {
+ public:
+  explicit Scope(bool inside) : previous_(t_in_polyport) { t_in_polyport = inside; }
+  ~Scope() { t_in_polyport = previous_; }
+  Scope(const Scope&) = delete;
+  Scope& operator=(const Scope&) = delete;
+
+ private:
+  bool previous_;
+};
+
+class CountingWriter final : public dds::Writer {
+ public:
+  explicit CountingWriter(std::unique_ptr<dds::Writer> inner) : inner_(std::move(inner)) {}
+  Status write(const std::byte* cdr, std::uint32_t size) noexcept override {
+    Scope sdk(false);
+    return inner_->write(cdr, size);
+  }
+  std::int32_t matched_readers() const noexcept override { return inner_->matched_readers(); }
+  dds::Guid guid() const noexcept override { return inner_->guid(); }
+
+ private:
+  std::unique_ptr<dds::Writer> inner_;
+};
+
+std::atomic<std::uint64_t> g_callbacks{0};
+
+class CountingDomain final : public dds::Domain {
+ public:
+  explicit CountingDomain(std::unique_ptr<dds::Domain> inner) : inner_(std::move(inner)) {}
+  std::string_view vendor() const noexcept override { return inner_->vendor(); }
+  std::uint32_t id() const noexcept override { return inner_->id(); }
+  Result<std::unique_ptr<dds::Writer>> create_writer(const dds::EndpointSpec& spec) override {
+    auto writer = inner_->create_writer(spec);
+    if (!writer) return writer.error();
+    return std::unique_ptr<dds::Writer>(std::make_unique<CountingWriter>(std::move(writer).value()));
+  }
+  Result<std::unique_ptr<dds::Reader>> create_reader(const dds::EndpointSpec& spec,
+                                                     dds::ReceiveCallback callback) override {
+    return inner_->create_reader(spec, [callback = std::move(callback)](const std::byte* cdr, std::uint32_t size,
+                                                                        MonoTime source) {
+      Scope polyport(true);
+      g_callbacks.fetch_add(1, std::memory_order_relaxed);
+      callback(cdr, size, source);
+    });
+  }
+
+ private:
+  std::unique_ptr<dds::Domain> inner_;
+};
+
+class PassthroughAlloc : public test::EngineFixture {
+ protected:
+  PassthroughAlloc() : EngineFixture(POLYPORT_TEST_DATA "/cyclonedds", LoadOptions{}) {
+    models.add(std::make_unique<dds::DdsModel>(
+        "cyclonedds",
+        [](std::uint32_t domain, const std::string& config) -> Result<std::unique_ptr<dds::Domain>> {
+          auto inner = cyclonedds::make_cyclonedds_domain(domain, config);
+          if (!inner) return inner.error();
+          return std::unique_ptr<dds::Domain>(std::make_unique<CountingDomain>(std::move(inner).value()));
+        },
+        cyclonedds::default_config()));
+  }
+};
+
+TEST_F(PassthroughAlloc, ForwardingASampleAllocatesNothingInPolyport) {
+  ASSERT_TRUE(build("alloc_app.xml")) << problems();
+  std::vector<std::string> warnings;
+  ASSERT_TRUE(engine.start(warnings));
+  {
+    test::GeneratedPeer left(146, "polyport_alloc_pose");
+    test::GeneratedPeer right(147, "polyport_alloc_pose");
+    ASSERT_TRUE(left.ok() && right.ok());
+    const dds_entity_t writer = left.make_writer();
+    const dds_entity_t reader = right.make_reader();
+    ASSERT_GT(writer, 0);
+    ASSERT_GT(reader, 0);
+    ASSERT_TRUE(eventually([&] { return test::publication_matches(writer) >= 1; }));
+    ASSERT_TRUE(eventually([&] { return test::subscription_matches(reader) >= 1; }));
+
+    std::vector<double> samples{0.5, -1.0, 3.75};
+    raw_peer_Pose sent{};
+    sent.frame = const_cast<char*>("base_link");
+    sent.samples._buffer = samples.data();
+    sent.samples._length = sent.samples._maximum = 3;
+    auto send_and_take = [&](int count) {
+      for (int i = 0; i < count; ++i) {
+        sent.id = i;
+        ASSERT_EQ(dds_write(writer, &sent), DDS_RETCODE_OK);
+        void* buffers[1] = {nullptr};
+        dds_sample_info_t infos[1];
+        dds_return_t taken = 0;
+        ASSERT_TRUE(eventually([&] {
+          taken = dds_take(reader, buffers, infos, 1, 1);
+          return taken > 0 && infos[0].valid_data;
+        })) << "sample " << i << " did not arrive on domain 147";
+        EXPECT_EQ(static_cast<const raw_peer_Pose*>(buffers[0])->id, i);
+        dds_return_loan(reader, buffers, taken);
+      }
+    };
+    send_and_take(50);  // warm-up: first-use allocations (histogram pages, SDK caches)
+
+    constexpr int kSamples = 1000;
+    const std::uint64_t callbacks_before = g_callbacks.load();
+    const std::uint64_t polyport_before = g_polyport_allocations.load();
+    const std::uint64_t all_before = g_all_allocations.load();
+    send_and_take(kSamples);
+    const std::uint64_t polyport = g_polyport_allocations.load() - polyport_before;
+    const std::uint64_t all = g_all_allocations.load() - all_before;
+
+    EXPECT_EQ(g_callbacks.load() - callbacks_before, static_cast<std::uint64_t>(kSamples));
+    EXPECT_EQ(polyport, 0u) << "polyport allocated on the forwarding path";
+    // Everything else in the process (Cyclone, the test's own peer code): reported.
+    RecordProperty("allocations_per_sample_outside_polyport", std::to_string(static_cast<double>(all) / kSamples));
+    std::printf("allocations per forwarded sample: polyport %.3f, whole process %.3f\n",
+                static_cast<double>(polyport) / kSamples, static_cast<double>(all) / kSamples);
+  }
+  nlohmann::json stats;
+  engine.stats(stats);
+  EXPECT_EQ(stats["connections"][0]["conversion"], "passthrough") << stats.dump(2);
+  EXPECT_EQ(stats["connections"][0]["dropped"], 0) << stats.dump(2);
+  engine.stop();
+}
+
+}  // namespace
+}  // namespace polyport
