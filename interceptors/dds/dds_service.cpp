@@ -48,6 +48,15 @@ nlohmann::json counters_json(const ServiceCounters& c) {
           {"unmatched", c.unmatched.load()}};
 }
 
+nlohmann::json operation_json(const DdsAdaptor::Operation& op) {
+  nlohmann::json o{{"operation", op.name}, {"request_topic", op.request.topic}, {"request_type", op.request.type_name}};
+  if (!op.oneway) {
+    o["reply_topic"] = op.reply.topic;
+    o["reply_type"] = op.reply.type_name;
+  }
+  return o;
+}
+
 EndpointSpec spec_of(const DdsAdaptor::Service& service, const DdsAdaptor::RpcLayout& layout) {
   return EndpointSpec{layout.topic, layout.type_name, service.qos, layout.max_size};
 }
@@ -254,12 +263,7 @@ void ServiceServer::expire() noexcept {
 void ServiceServer::describe(nlohmann::json& out) const {
   nlohmann::json operations = nlohmann::json::array();
   for (std::size_t i = 0; i < service_.operations.size(); ++i) {
-    const DdsAdaptor::Operation& op = service_.operations[i];
-    nlohmann::json o{{"operation", op.name}, {"request_topic", op.request.topic}, {"request_type", op.request.type_name}};
-    if (!op.oneway) {
-      o["reply_topic"] = op.reply.topic;
-      o["reply_type"] = op.reply.type_name;
-    }
+    nlohmann::json o = operation_json(service_.operations[i]);
     if (i < endpoints_.size()) {
       if (endpoints_[i].request) o["matched_servers"] = endpoints_[i].request->matched_readers();
       if (endpoints_[i].reply) o["matched_reply_writers"] = endpoints_[i].reply->matched_writers();
@@ -395,12 +399,7 @@ void ServiceClient::reply(std::uint16_t operation, const std::uint8_t* identity,
 void ServiceClient::describe(nlohmann::json& out) const {
   nlohmann::json operations = nlohmann::json::array();
   for (std::size_t i = 0; i < service_.operations.size(); ++i) {
-    const DdsAdaptor::Operation& op = service_.operations[i];
-    nlohmann::json o{{"operation", op.name}, {"request_topic", op.request.topic}, {"request_type", op.request.type_name}};
-    if (!op.oneway) {
-      o["reply_topic"] = op.reply.topic;
-      o["reply_type"] = op.reply.type_name;
-    }
+    nlohmann::json o = operation_json(service_.operations[i]);
     if (i < endpoints_.size() && endpoints_[i]->request) {
       o["matched_clients"] = endpoints_[i]->request->matched_writers();
     }

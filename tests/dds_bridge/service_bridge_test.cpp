@@ -346,13 +346,24 @@ class Provider : public Component {
   ProvidedServicePort& port;
 };
 
-TEST_F(ServiceBridge, DdsClientGetsTheInProcessProvidersReplyWithItsIdentity) {
-  build(PortDirection::required);
-  RequiredServicePort& required = *adaptor->services()[0].required;
-  Provider provider(required.operations(), ProvidedServicePort::Dispatch::caller_thread);
-  ASSERT_TRUE(required.connect(provider.port));
-  ASSERT_TRUE(interceptor->start());
-  DdsClient client(*this, *domain);
+// The DDS application calls; polyport forwards to an in-process provider with `dispatch`.
+class ServiceBridgeClient : public ServiceBridge {
+ protected:
+  void start(ProvidedServicePort::Dispatch dispatch) {
+    build(PortDirection::required);
+    RequiredServicePort& required = *adaptor->services()[0].required;
+    provider = std::make_unique<Provider>(required.operations(), dispatch);
+    ASSERT_TRUE(required.connect(provider->port));
+    ASSERT_TRUE(interceptor->start());
+    dds_client = std::make_unique<DdsClient>(*this, *domain);
+  }
+  std::unique_ptr<Provider> provider;
+  std::unique_ptr<DdsClient> dds_client;
+};
+
+TEST_F(ServiceBridgeClient, DdsClientGetsTheInProcessProvidersReplyWithItsIdentity) {
+  start(ProvidedServicePort::Dispatch::caller_thread);
+  DdsClient& client = *dds_client;
 
   client.call(7, 1.25, 2.5);
   client.call(8, -4.0, 1.0);
@@ -366,17 +377,14 @@ TEST_F(ServiceBridge, DdsClientGetsTheInProcessProvidersReplyWithItsIdentity) {
   EXPECT_DOUBLE_EQ(replies[1].reply.sum, -3.0);
 }
 
-TEST_F(ServiceBridge, ProviderOnItsOwnThreadRepliesLater) {
-  build(PortDirection::required);
+TEST_F(ServiceBridgeClient, ProviderOnItsOwnThreadRepliesLater) {
+  start(ProvidedServicePort::Dispatch::own_thread);
+  DdsClient& client = *dds_client;
   RequiredServicePort& required = *adaptor->services()[0].required;
-  Provider provider(required.operations(), ProvidedServicePort::Dispatch::own_thread);
-  ASSERT_TRUE(required.connect(provider.port));
-  ASSERT_TRUE(interceptor->start());
-  DdsClient client(*this, *domain);
 
   client.call(1, 10.0, 5.0);
   EXPECT_TRUE(client.replies().empty());  // queued until the provider's thread serves it
-  std::thread serving([&] { provider.port.serve_queued(); });
+  std::thread serving([&] { provider->port.serve_queued(); });
   serving.join();
   ASSERT_TRUE(test::eventually([&] { return client.replies().size() == 1; }));
   EXPECT_DOUBLE_EQ(client.replies()[0].reply.sum, 15.0);
@@ -410,13 +418,9 @@ TEST_F(ServiceBridge, DdsClientHearsWhyACallFailed) {
   EXPECT_EQ(client.replies()[3].status, static_cast<std::int32_t>(Status::not_active));
 }
 
-TEST_F(ServiceBridge, MalformedRequestIsCountedAndDropped) {
-  build(PortDirection::required);
-  RequiredServicePort& required = *adaptor->services()[0].required;
-  Provider provider(required.operations(), ProvidedServicePort::Dispatch::caller_thread);
-  ASSERT_TRUE(required.connect(provider.port));
-  ASSERT_TRUE(interceptor->start());
-  DdsClient client(*this, *domain);
+TEST_F(ServiceBridgeClient, MalformedRequestIsCountedAndDropped) {
+  start(ProvidedServicePort::Dispatch::caller_thread);
+  DdsClient& client = *dds_client;
 
   const std::byte truncated[8] = {std::byte{0}, std::byte{1}, std::byte{0}, std::byte{0}, std::byte{1}};
   client.write_raw(truncated, sizeof truncated);
