@@ -33,11 +33,13 @@
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
+#include <fastdds/dds/publisher/qos/PublisherQos.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
+#include <fastdds/dds/subscriber/qos/SubscriberQos.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
@@ -150,22 +152,33 @@ bool RawType::getKey(void*, eprosima::fastrtps::rtps::InstanceHandle_t* handle, 
 Result<std::unique_ptr<Participant>> Participant::create(const ParticipantOptions& options) {
   try {
     dds::DomainParticipantQos qos = dds::PARTICIPANT_QOS_DEFAULT;
-    qos.name(options.name);
-    // Replace the built-in transports (SHM + UDPv4 on every interface) with the chosen ones.
-    qos.transport().use_builtin_transports = false;
-    const bool udp = options.transport != Transport::shm;
-    const bool shm = options.transport != Transport::udp_loopback;
-    if (shm) {
-      qos.transport().user_transports.push_back(
-          std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>());
+    auto* factory = dds::DomainParticipantFactory::get_instance();
+    if (!options.profiles_file.empty()) {
+      // Loading makes the file's default participant profile the factory's default QoS
+      // (process-wide; read at once, before another file can replace it).
+      if (factory->load_XML_profiles_file(options.profiles_file) != ReturnCode_t::RETCODE_OK) {
+        return make_error("fastdds: cannot load the XML profiles file '" + options.profiles_file +
+                          "' (missing, unreadable or not a Fast DDS profiles file; Fast DDS logs why)");
+      }
+      qos = factory->get_default_participant_qos();
+    } else {
+      qos.name(options.name);
+      // Replace the built-in transports (SHM + UDPv4 on every interface) with the chosen ones.
+      qos.transport().use_builtin_transports = false;
+      const bool udp = options.transport != Transport::shm;
+      const bool shm = options.transport != Transport::udp_loopback;
+      if (shm) {
+        qos.transport().user_transports.push_back(
+            std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>());
+      }
+      if (udp) {
+        auto descriptor = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+        descriptor->interfaceWhiteList.emplace_back("127.0.0.1");
+        qos.transport().user_transports.push_back(std::move(descriptor));
+      }
     }
-    if (udp) {
-      auto descriptor = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
-      descriptor->interfaceWhiteList.emplace_back("127.0.0.1");
-      qos.transport().user_transports.push_back(std::move(descriptor));
-    }
-    dds::DomainParticipant* native = dds::DomainParticipantFactory::get_instance()->create_participant(
-        static_cast<dds::DomainId_t>(options.domain_id), qos);
+    dds::DomainParticipant* native =
+        factory->create_participant(static_cast<dds::DomainId_t>(options.domain_id), qos);
     if (native == nullptr) {
       return make_error("fastdds: cannot create a participant on domain " +
                         std::to_string(options.domain_id));
@@ -241,6 +254,12 @@ Result<dds::Topic*> Participant::raw_topic(const std::string& topic_name,
 
 namespace {
 
+eprosima::fastrtps::Duration_t duration(const std::optional<std::int64_t>& ns) {
+  if (!ns) return eprosima::fastrtps::c_TimeInfinite;
+  return eprosima::fastrtps::Duration_t(static_cast<std::int32_t>(*ns / 1'000'000'000),
+                                        static_cast<std::uint32_t>(*ns % 1'000'000'000));
+}
+
 template <class EndpointQos>
 void apply(const Qos& in, EndpointQos& out) {
   out.reliability().kind = in.reliability == Qos::Reliability::reliable
@@ -252,8 +271,20 @@ void apply(const Qos& in, EndpointQos& out) {
   out.history().kind =
       in.history == Qos::History::keep_all ? dds::KEEP_ALL_HISTORY_QOS : dds::KEEP_LAST_HISTORY_QOS;
   out.history().depth = in.depth > 0 ? in.depth : 1;
+  out.deadline().period = duration(in.deadline_ns);
+  out.lifespan().duration = duration(in.lifespan_ns);
+  out.liveliness().kind = in.liveliness == Qos::Liveliness::automatic ? dds::AUTOMATIC_LIVELINESS_QOS
+                          : in.liveliness == Qos::Liveliness::manual_by_participant
+                              ? dds::MANUAL_BY_PARTICIPANT_LIVELINESS_QOS
+                              : dds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
+  out.liveliness().lease_duration = duration(in.lease_ns);
   // Data sharing needs a plain type; say so instead of relying on AUTO's silent fallback.
   out.data_sharing().off();
+}
+
+template <class GroupQos>
+void apply_partitions(const Qos& in, GroupQos& out) {
+  for (const std::string& name : in.partitions) out.partition().push_back(name.c_str());
 }
 
 }  // namespace
@@ -270,7 +301,9 @@ Result<std::unique_ptr<RawWriter>> RawWriter::create(Participant& participant,
   writer->participant_ = &participant;
   writer->max_size_ = max_size;
   try {
-    writer->publisher_ = participant.native()->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
+    dds::PublisherQos publisher_qos = dds::PUBLISHER_QOS_DEFAULT;
+    apply_partitions(qos, publisher_qos);
+    writer->publisher_ = participant.native()->create_publisher(publisher_qos);
     if (writer->publisher_ == nullptr) return make_error("fastdds: cannot create a publisher");
     dds::DataWriterQos writer_qos = dds::DATAWRITER_QOS_DEFAULT;
     apply(qos, writer_qos);
@@ -315,6 +348,17 @@ std::int32_t RawWriter::matched_readers() const noexcept {
   }
 }
 
+std::array<std::uint8_t, 16> RawWriter::guid() const noexcept {
+  std::array<std::uint8_t, 16> out{};
+  try {
+    const eprosima::fastrtps::rtps::GUID_t& guid = writer_->guid();
+    std::memcpy(out.data(), guid.guidPrefix.value, 12);
+    std::memcpy(out.data() + 12, guid.entityId.value, 4);
+  } catch (...) {
+  }
+  return out;
+}
+
 // ---- RawReader ----------------------------------------------------------------------------
 
 class RawReader::Listener final : public dds::DataReaderListener {
@@ -344,7 +388,9 @@ Result<std::unique_ptr<RawReader>> RawReader::create(Participant& participant,
     reader->type_ = dynamic_cast<const RawType*>(participant.native()->find_type(type_name).get());
     reader->storage_ = std::make_unique<std::byte[]>(max_size);
     reader->listener_ = std::make_unique<Listener>(*reader);
-    reader->subscriber_ = participant.native()->create_subscriber(dds::SUBSCRIBER_QOS_DEFAULT);
+    dds::SubscriberQos subscriber_qos = dds::SUBSCRIBER_QOS_DEFAULT;
+    apply_partitions(qos, subscriber_qos);
+    reader->subscriber_ = participant.native()->create_subscriber(subscriber_qos);
     if (reader->subscriber_ == nullptr) return make_error("fastdds: cannot create a subscriber");
     dds::DataReaderQos reader_qos = dds::DATAREADER_QOS_DEFAULT;
     apply(qos, reader_qos);

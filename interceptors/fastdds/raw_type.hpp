@@ -11,6 +11,7 @@
 // Result, the forwarding path returns Status.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
@@ -22,6 +23,7 @@
 #include <fastdds/dds/topic/TopicDataType.hpp>
 
 #include "polyport/clock.hpp"
+#include "polyport/profile.hpp"
 #include "polyport/result.hpp"
 #include "polyport/status.hpp"
 
@@ -105,20 +107,18 @@ struct ParticipantOptions {
   std::uint32_t domain_id = 0;
   Transport transport = Transport::shm_and_udp_loopback;
   std::string name = "polyport";
+  // A Fast DDS XML profiles file: when set, the participant QoS (transports included) is the
+  // file's participant profile marked is_default_profile="true" (Fast DDS's own defaults if
+  // it marks none), and `transport` and `name` are not used.
+  std::string profiles_file;
 };
 
-// Endpoint QoS. Defaults: reliable, volatile, keep_last 10: what ROS 2's default profile
-// and fastddsgen's example apps use, so a default peer matches (a reliable reader does not
-// match a best-effort writer, and a transient_local reader does not match a volatile one).
-struct Qos {
-  enum class Reliability : std::uint8_t { best_effort, reliable };
-  enum class Durability : std::uint8_t { volatile_, transient_local };
-  enum class History : std::uint8_t { keep_last, keep_all };
-  Reliability reliability = Reliability::reliable;
-  Durability durability = Durability::volatile_;
-  History history = History::keep_last;
-  std::int32_t depth = 10;  // keep_last only
-};
+// Endpoint QoS: polyport's DdsQos (profile.hpp), every field mapped onto Fast DDS's. Its
+// defaults (reliable, volatile, keep_last 10) are what ROS 2's default profile and
+// fastddsgen's example apps use, so a default peer matches (a reliable reader does not match
+// a best-effort writer, and a transient_local reader does not match a volatile one).
+// Partitions go on the endpoint's own publisher / subscriber.
+using Qos = DdsQos;
 
 class Participant {
  public:
@@ -160,6 +160,8 @@ class RawWriter {
   Status write(const std::byte* cdr, std::uint32_t size) noexcept;
   // Readers currently matched (from the SDK's publication-matched status).
   std::int32_t matched_readers() const noexcept;
+  // The writer's RTPS GUID: the 12-byte prefix, then the 4-byte entity id, as on the wire.
+  std::array<std::uint8_t, 16> guid() const noexcept;
 
  private:
   RawWriter() = default;
