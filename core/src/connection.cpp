@@ -95,8 +95,11 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
 
 void Connection::hand_over(const std::byte* data, const SampleMeta& meta) noexcept {
   if (!buffer_) {
+    // polyport's own time ends where the sink (an adaptor, or a foreign SDK's write) begins.
+    const MonoTime handed = mono_now();
+    latency_.record((handed - meta.t_in).count);
     const Status status = target_.sink()->on_sample(data, meta);
-    latency_.record((mono_now() - meta.t_in).count);
+    sink_time_.record((mono_now() - handed).count);
     if (status == Status::ok) {
       counters_.delivered.fetch_add(1, std::memory_order_relaxed);
     } else {

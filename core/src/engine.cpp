@@ -274,6 +274,7 @@ void Engine::stats(nlohmann::json& out) const {
                      {"conversion", c->conversion()},
                      {"latency_ns", to_json(c->latency().summarize())}};
     if (!c->push_mode()) j["age_at_read_ns"] = to_json(c->age().summarize());
+    if (c->push_mode()) j["sink_ns"] = to_json(c->sink_time().summarize());
     out["connections"].push_back(std::move(j));
   }
   out["services"] = nlohmann::json::array();

@@ -69,10 +69,14 @@ class Connection {
   std::string conversion() const;  // "passthrough" or the steps, e.g. "xcdr1 -> flat -> map -> lcm"
 
   const ConnectionCounters& counters() const noexcept { return counters_; }
-  // t_out - t_in: entry until stored for the reader (pull) or handled by the sink (push).
+  // t_out - t_in, polyport's own time: entry until stored for the reader (pull) or handed to
+  // the sink (push), conversion included.
   const LatencyHistogram& latency() const noexcept { return latency_; }
   // t_read - t_in: entry until the reader took the sample (pull mode only).
   const LatencyHistogram& age() const noexcept { return age_; }
+  // Push mode: time spent in the target's sink (for a foreign model, its SDK's write), which
+  // latency() does not include.
+  const LatencyHistogram& sink_time() const noexcept { return sink_time_; }
 
  private:
   DataOutPort& source_;
@@ -94,6 +98,7 @@ class Connection {
   ConnectionCounters counters_;
   LatencyHistogram latency_;
   LatencyHistogram age_;
+  LatencyHistogram sink_time_;
 };
 
 }  // namespace polyport
