@@ -224,7 +224,11 @@ Status RequiredServicePort::finish(PendingCall& call, void* reply, std::uint32_t
     if (reply_size) *reply_size = call.reply_size;
   }
   call.state_.store(PendingCall::State::free, std::memory_order_release);
-  (status == Status::ok ? counters_.ok : counters_.errors).fetch_add(1, std::memory_order_relaxed);
+  // A provider may end a call with `timeout` itself (a foreign model's call timeout).
+  (status == Status::ok        ? counters_.ok
+   : status == Status::timeout ? counters_.timeouts
+                               : counters_.errors)
+      .fetch_add(1, std::memory_order_relaxed);
   return status;
 }
 

@@ -2,13 +2,15 @@
 // by idlc from peer.idl, the C API, the SDK's default QoS except reliable keep-last 10 (ROS
 // 2's default). It knows nothing of polyport. One line of JSON per event on stdout.
 //
-//   cyclone_peer pub   DOMAIN TOPIC COUNT PERIOD_MS [START]   publish Poses START..START+COUNT-1
+//   cyclone_peer pub   DOMAIN TOPIC COUNT PERIOD_MS [START]   publish Poses START..START+COUNT-1 (0: no end)
 //   cyclone_peer sub   DOMAIN TOPIC COUNT TIMEOUT_S           print each Pose; exit 0 after COUNT
 //   cyclone_peer call  DOMAIN BASE COUNT TIMEOUT_MS           call BASE add(i, 0.5) COUNT times
 //   cyclone_peer serve DOMAIN BASE COUNT [silent]             answer COUNT add requests
 // Built with POLYPORT_BAD_POSE (cyclone_bad_peer), `pub` publishes bad_pose.idl's peer::Pose.
 // Exit status: 0 done, 1 timed out or failed, 2 bad arguments.
+#include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cinttypes>
 #include <cstdio>
 #include <cstdlib>
@@ -28,6 +30,11 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// SIGINT / SIGTERM end every loop, so the participant is deleted properly (for Fast DDS: its
+// shared-memory segments are released).
+std::atomic<bool> g_stop{false};
+extern "C" void on_signal(int) { g_stop = true; }
+
 void line(const std::string& text) {
   std::fputs((text + "\n").c_str(), stdout);
   std::fflush(stdout);
@@ -44,7 +51,7 @@ template <class F>
 bool wait_for(F&& condition, std::chrono::milliseconds limit) {
   const auto deadline = Clock::now() + limit;
   while (!condition()) {
-    if (Clock::now() > deadline) return false;
+    if (g_stop || Clock::now() > deadline) return false;
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   return true;
@@ -74,7 +81,7 @@ int publish(dds_entity_t participant, const char* topic_name, int count, int per
     return 1;
   }
   line(R"({"event":"matched"})");
-  for (int i = start; i < start + count; ++i) {
+  for (int i = start; !g_stop && (count == 0 || i < start + count); ++i) {  // COUNT 0: until stopped
     peer_Pose pose{};
 #ifdef POLYPORT_BAD_POSE
     pose.junk = static_cast<std::uint8_t>(i);
@@ -111,7 +118,7 @@ int subscribe(dds_entity_t participant, const char* topic_name, int count, int t
   const auto deadline = Clock::now() + std::chrono::seconds(timeout_s);
   int received = 0;
   bool announced = false;
-  while (received < count && Clock::now() < deadline) {
+  while (!g_stop && received < count && Clock::now() < deadline) {
     if (!announced && subscription_matches(reader) > 0) {
       line(R"({"event":"matched"})");
       announced = true;
@@ -217,7 +224,7 @@ int serve(dds_entity_t participant, const char* base, int count, bool silent) {
   line(R"({"event":"matched"})");
   int served = 0;
   const auto deadline = Clock::now() + std::chrono::seconds(60);
-  while (served < count && Clock::now() < deadline) {
+  while (!g_stop && served < count && Clock::now() < deadline) {
     void* buffers[1] = {nullptr};
     dds_sample_info_t info[1];
     const dds_return_t n = dds_take(reader, buffers, info, 1, 1);
@@ -251,6 +258,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: %s pub|sub|call|serve DOMAIN TOPIC COUNT [ARG] [ARG]\n", argv[0]);
     return 2;
   }
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
   const std::string mode = argv[1];
   const auto domain = static_cast<dds_domainid_t>(std::atoi(argv[2]));
   const char* topic = argv[3];

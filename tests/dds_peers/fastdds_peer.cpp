@@ -3,7 +3,9 @@
 // default). It knows nothing of polyport. One line of JSON per event on stdout. Same command
 // line as cyclone_peer (pub, sub, call, serve). Transports: Fast DDS's default participant
 // profile (the tests point FASTRTPS_DEFAULT_PROFILES_FILE at config/fastdds-loopback.xml).
+#include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -29,6 +31,11 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// SIGINT / SIGTERM end every loop, so the participant is deleted properly (for Fast DDS: its
+// shared-memory segments are released).
+std::atomic<bool> g_stop{false};
+extern "C" void on_signal(int) { g_stop = true; }
+
 void line(const std::string& text) {
   std::fputs((text + "\n").c_str(), stdout);
   std::fflush(stdout);
@@ -38,7 +45,7 @@ template <class F>
 bool wait_for(F&& condition, std::chrono::milliseconds limit) {
   const auto deadline = Clock::now() + limit;
   while (!condition()) {
-    if (Clock::now() > deadline) return false;
+    if (g_stop || Clock::now() > deadline) return false;
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   return true;
@@ -104,7 +111,7 @@ int publish(Peer& peer, const std::string& topic_name, int count, int period_ms,
     return 1;
   }
   line(R"({"event":"matched"})");
-  for (int i = start; i < start + count; ++i) {
+  for (int i = start; !g_stop && (count == 0 || i < start + count); ++i) {  // COUNT 0: until stopped
     peer::Pose pose;
     pose.id(peer_values::id(i));
     pose.x(peer_values::x(i));
@@ -130,7 +137,7 @@ int subscribe(Peer& peer, const std::string& topic_name, int count, int timeout_
   const auto deadline = Clock::now() + std::chrono::seconds(timeout_s);
   int received = 0;
   bool announced = false;
-  while (received < count && Clock::now() < deadline) {
+  while (!g_stop && received < count && Clock::now() < deadline) {
     if (!announced && matches(reader) > 0) {
       line(R"({"event":"matched"})");
       announced = true;
@@ -217,7 +224,7 @@ int serve(Peer& peer, const std::string& base, int count, bool silent) {
   line(R"({"event":"matched"})");
   int served = 0;
   const auto deadline = Clock::now() + std::chrono::seconds(60);
-  while (served < count && Clock::now() < deadline) {
+  while (!g_stop && served < count && Clock::now() < deadline) {
     peer::Add_Request request;
     SampleInfo info;
     if (reader->take_next_sample(&request, &info) != ReturnCode_t::RETCODE_OK) {
@@ -246,6 +253,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: %s pub|sub|call|serve DOMAIN TOPIC COUNT [ARG] [ARG]\n", argv[0]);
     return 2;
   }
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
   const std::string mode = argv[1];
   const int count = std::atoi(argv[4]);
   const int arg = argc > 5 ? std::atoi(argv[5]) : 0;
