@@ -13,3 +13,9 @@ for bench in inproc_connection conversion; do
   ./build/bin/bench_${bench} --benchmark_out="$out" --benchmark_out_format=json --benchmark_min_time=0.05 "$@"
   echo "results: $out"
 done
+# DDS ping-pong: direct vs via polyportd, both vendors, 16 B and 1 KiB (needs both SDKs).
+if [ -x ./build/bin/bench_dds_pingpong ]; then
+  ./build/bin/bench_dds_pingpong "benchmarks/results/dds_pingpong-${stamp}.json" 10000 1000
+else
+  echo "bench_dds_pingpong not built (needs Cyclone DDS, Fast DDS, idlc and fastddsgen); skipped" >&2
+fi
