@@ -231,3 +231,26 @@ TEST(Daemon, UsageErrorsAndVersion) {
 }
 
 }  // namespace
+
+namespace polyport {
+namespace {
+
+// The shipped DDS examples load, and each joins its domains and runs (the DDS models are in
+// the daemon when their SDKs were found at build time, as in CI).
+TEST(ShippedDdsProfiles, CheckAndRunBriefly) {
+  for (const std::string name : {"dds_bridge", "dds_inproc"}) {
+    SCOPED_TRACE(name);
+    const std::string profile = POLYPORT_SOURCE_DIR "/profiles/" + name + ".xml";
+    const Process check = spawn({"check", profile}, name + "-check");
+    EXPECT_EQ(wait_exit(check), 0) << slurp(check.err);
+    const fs::path stats = scratch(name + "-stats.json");
+    const Process run = spawn({"run", profile, "--duration", "1", "-q", "--stats-json", stats.string()}, name + "-run");
+    ASSERT_EQ(wait_exit(run), 0) << slurp(run.err);
+    const auto json = nlohmann::json::parse(slurp(stats), nullptr, false);
+    ASSERT_FALSE(json.is_discarded());
+    EXPECT_EQ(json["connections"].size(), name == "dds_bridge" ? 2u : 4u) << json.dump(2);
+  }
+}
+
+}  // namespace
+}  // namespace polyport
