@@ -977,3 +977,95 @@ TEST_F(ProfileLoader, ReadsDdsDomainConfigAndTopics) {
 }
 
 }  // namespace
+
+namespace {
+
+// DDS QoS, service-call limits and service ports over DDS (tests/data/profiles/dds).
+TEST_F(ProfileLoader, DdsQosDefaultsWhenAbsent) {
+  const auto app = load("../cyclonedds/bridge_app.xml");
+  ASSERT_TRUE(app.has_value()) << ::testing::PrintToString(messages());
+  const ComponentProfile& profile = app->find_component("left")->profile;
+  const DdsQos& qos = profile.ports[0].qos;
+  EXPECT_EQ(qos, DdsQos{});
+  EXPECT_EQ(qos.reliability, DdsQos::Reliability::reliable);
+  EXPECT_EQ(qos.durability, DdsQos::Durability::volatile_);
+  EXPECT_EQ(qos.history, DdsQos::History::keep_last);
+  EXPECT_EQ(qos.depth, 10);
+  EXPECT_FALSE(qos.deadline_ns || qos.lifespan_ns || qos.lease_ns);
+  EXPECT_EQ(qos.liveliness, DdsQos::Liveliness::automatic);
+  EXPECT_TRUE(qos.partitions.empty());
+  EXPECT_EQ(profile.dds_max_calls_in_flight, 16u);
+  EXPECT_EQ(profile.dds_call_timeout_ns, 1'000'000'000);
+}
+
+TEST_F(ProfileLoader, DdsQosFromTheComponentAndOverriddenByAPort) {
+  const auto app = load("dds/qos_app.xml");
+  ASSERT_TRUE(app.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_TRUE(messages().empty()) << ::testing::PrintToString(messages());
+  const ComponentProfile& profile = app->find_component("comp")->profile;
+  EXPECT_EQ(profile.dds_domain, 3u);
+  EXPECT_EQ(profile.dds_max_calls_in_flight, 3u);
+  EXPECT_EQ(profile.dds_call_timeout_ns, 40'000'000);
+
+  const DdsQos& plain = profile.find_port("plain")->qos;  // the component's, as given
+  EXPECT_EQ(plain, profile.dds_qos);
+  EXPECT_EQ(plain.reliability, DdsQos::Reliability::best_effort);
+  EXPECT_EQ(plain.durability, DdsQos::Durability::transient_local);
+  EXPECT_EQ(plain.history, DdsQos::History::keep_all);
+  EXPECT_EQ(plain.depth, 5);
+  EXPECT_EQ(plain.deadline_ns, 100'000'000);
+  EXPECT_EQ(plain.lifespan_ns, 250'500'000);
+  EXPECT_EQ(plain.liveliness, DdsQos::Liveliness::manual_by_topic);
+  EXPECT_EQ(plain.lease_ns, 2'000'000'000);
+  EXPECT_EQ(plain.partitions, (std::vector<std::string>{"a", "b"}));
+
+  const PortSpec* tuned = profile.find_port("tuned");
+  EXPECT_EQ(tuned->topic, "t");
+  EXPECT_EQ(tuned->qos.reliability, DdsQos::Reliability::reliable);  // overridden
+  EXPECT_FALSE(tuned->qos.deadline_ns.has_value());                  // 0: infinite
+  EXPECT_EQ(tuned->qos.partitions, (std::vector<std::string>{"c"})); // replaced, not added
+  EXPECT_EQ(tuned->qos.durability, DdsQos::Durability::transient_local);  // kept
+  EXPECT_EQ(tuned->qos.lifespan_ns, 250'500'000);
+
+  const PortSpec* svc = profile.find_port("svc");
+  EXPECT_EQ(svc->topic, "base");
+  ASSERT_EQ(svc->operations.size(), 1u);
+  EXPECT_EQ(svc->operations[0].dds_request_type, "q::Op_Request");
+  EXPECT_EQ(svc->operations[0].dds_reply_type, "q::Op_Reply");
+}
+
+TEST_F(ProfileLoader, DdsQosAndServiceErrorsAtTheirPlaces) {
+  EXPECT_FALSE(load("dds/bad_qos_app.xml").has_value());
+  const std::vector<std::string> expected = {
+      "dds/BadQos.xml:6:119: /component_profile/dds/qos/deadline_ms[2]: duplicate <deadline_ms>: already given at "
+      "line 6",
+      "dds/BadQos.xml:6:23: /component_profile/dds/qos/reliability: bad reliability 'sometimes' (accepted: reliable, "
+      "best_effort)",
+      "dds/BadQos.xml:6:53: /component_profile/dds/qos/depth: bad history depth '0': expected an integer from 1 to "
+      "2147483647",
+      "dds/BadQos.xml:6:75: /component_profile/dds/qos/deadline_ms[1]: bad deadline_ms '-1': expected a number of "
+      "milliseconds from 0 to 86400000",
+      "dds/BadQos.xml:7:26: /component_profile/dds/max_calls_in_flight: bad max_calls_in_flight '0': expected an "
+      "integer from 1 to 4096",
+      "dds/BadQos.xml:8:22: /component_profile/dds/call_timeout_ms: call_timeout_ms must be greater than 0",
+      "dds/BadQos.xml:12:7: /component_profile/ports/service_port/operation[1]: missing attribute 'dds_request': the "
+      "struct a DDS application writes on the request topic (a polyport::rpc::RequestHeader, then the request)",
+      "dds/BadQos.xml:12:7: /component_profile/ports/service_port/operation[1]: missing attribute 'dds_reply': the "
+      "struct a DDS application writes on the reply topic (a polyport::rpc::ReplyHeader, then the reply)",
+      "dds/BadQos.xml:13:101: /component_profile/ports/service_port/operation[2]/@dds_reply: a oneway operation has "
+      "no reply",
+      "dds/Inproc.xml:7:83: /component_profile/ports/data_port/qos: warning: <qos> is ignored by model 'inproc'",
+  };
+  EXPECT_EQ(messages(), expected);
+}
+
+TEST(ProfileSchema, DdsFixturesAgainstTheXsd) {
+  if (std::system("xmllint --version > /dev/null 2>&1") != 0) {
+    GTEST_SKIP() << "xmllint not installed (libxml2-utils)";
+  }
+  const std::string command = "xmllint --noout --schema '" + schema_file().string() + "' '" +
+                              (profiles_dir() / "dds" / "QosComp.xml").string() + "' > /dev/null 2>&1";
+  EXPECT_EQ(std::system(command.c_str()), 0);
+}
+
+}  // namespace
