@@ -13,18 +13,12 @@
 
 #include "dds/dds.h"
 #include "pingpong.h"
-#include "stats.hpp"
+#include "pingpong_common.hpp"
 
 namespace {
 
-std::atomic<bool> g_stop{false};
-extern "C" void on_signal(int) { g_stop = true; }
-
-std::int64_t now_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
+using bench::g_stop;
+using bench::now_ns;
 
 struct Endpoints {
   dds_entity_t participant, writer, reader, waitset;
@@ -78,32 +72,22 @@ int ping(dds_domainid_t domain, const dds_topic_descriptor_t* type, int rounds, 
     if (g_stop || now_ns() > deadline) return 1;
     dds_sleepfor(DDS_MSECS(10));
   }
-  std::vector<std::int64_t> rtt;
-  rtt.reserve(static_cast<std::size_t>(rounds));
-  int lost = 0;
   T sample{};
   T echo{};
-  for (int i = 0; i < warmup + rounds && !g_stop; ++i) {
-    sample.seq = static_cast<std::uint64_t>(i);
-    const std::int64_t t0 = now_ns();
-    if (dds_write(e.writer, &sample) != DDS_RETCODE_OK) return 1;
-    bool got = false;
-    while (take_one(e, &echo, sizeof echo, DDS_SECS(1))) {
-      if (echo.seq == sample.seq) {
-        got = true;
-        break;
-      }
-    }
-    const std::int64_t t1 = now_ns();
-    if (!got) {
-      ++lost;
-      continue;
-    }
-    if (i >= warmup) rtt.push_back(t1 - t0);
-  }
-  bench::report("cyclonedds", size, warmup, rtt, lost);
+  const int rc = bench::run_ping(
+      "cyclonedds", size, rounds, warmup,
+      [&](std::uint64_t seq) {
+        sample.seq = seq;
+        return dds_write(e.writer, &sample) == DDS_RETCODE_OK;
+      },
+      [&](std::uint64_t seq) {
+        while (take_one(e, &echo, sizeof echo, DDS_SECS(1))) {
+          if (echo.seq == seq) return true;
+        }
+        return false;
+      });
   dds_delete(e.participant);
-  return 0;
+  return rc;
 }
 
 template <class T>
@@ -120,8 +104,7 @@ int pong(dds_domainid_t domain, const dds_topic_descriptor_t* type) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  bench::stop_on_signals();
   if (argc < 4) {
     std::fprintf(stderr, "usage: %s ping DOMAIN SIZE ROUNDS WARMUP | pong DOMAIN SIZE\n", argv[0]);
     return 2;

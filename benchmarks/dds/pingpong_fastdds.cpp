@@ -21,20 +21,14 @@
 
 #include "pingpong.h"
 #include "pingpongPubSubTypes.h"
-#include "stats.hpp"
+#include "pingpong_common.hpp"
 
 using namespace eprosima::fastdds::dds;
 
 namespace {
 
-std::atomic<bool> g_stop{false};
-extern "C" void on_signal(int) { g_stop = true; }
-
-std::int64_t now_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
+using bench::g_stop;
+using bench::now_ns;
 
 struct Endpoints {
   DomainParticipant* participant = nullptr;
@@ -97,32 +91,22 @@ int ping(int domain, int rounds, int warmup, int size) {
     struct timespec ten_ms{0, 10'000'000};
     nanosleep(&ten_ms, nullptr);
   }
-  std::vector<std::int64_t> rtt;
-  rtt.reserve(static_cast<std::size_t>(rounds));
-  int lost = 0;
   T sample;
   T echo;
-  for (int i = 0; i < warmup + rounds && !g_stop; ++i) {
-    sample.seq(static_cast<std::uint64_t>(i));
-    const std::int64_t t0 = now_ns();
-    if (!e.writer->write(&sample)) return 1;
-    bool got = false;
-    while (take_one(e, echo, eprosima::fastrtps::Duration_t(1, 0))) {
-      if (echo.seq() == sample.seq()) {
-        got = true;
-        break;
-      }
-    }
-    const std::int64_t t1 = now_ns();
-    if (!got) {
-      ++lost;
-      continue;
-    }
-    if (i >= warmup) rtt.push_back(t1 - t0);
-  }
-  bench::report("fastdds", size, warmup, rtt, lost);
+  const int rc = bench::run_ping(
+      "fastdds", size, rounds, warmup,
+      [&](std::uint64_t seq) {
+        sample.seq(seq);
+        return e.writer->write(&sample);
+      },
+      [&](std::uint64_t seq) {
+        while (take_one(e, echo, eprosima::fastrtps::Duration_t(1, 0))) {
+          if (echo.seq() == seq) return true;
+        }
+        return false;
+      });
   close(e);
-  return 0;
+  return rc;
 }
 
 template <class T, class PubSub>
@@ -139,8 +123,7 @@ int pong(int domain) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  bench::stop_on_signals();
   if (argc < 4) {
     std::fprintf(stderr, "usage: %s ping DOMAIN SIZE ROUNDS WARMUP | pong DOMAIN SIZE\n", argv[0]);
     return 2;

@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "dds/dds.h"
+#include "peer_common.hpp"
 #ifdef POLYPORT_BAD_POSE
 #include "bad_pose.h"
 #else
@@ -28,33 +29,13 @@
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-// SIGINT / SIGTERM end every loop, so the participant is deleted properly (for Fast DDS: its
-// shared-memory segments are released).
-std::atomic<bool> g_stop{false};
-extern "C" void on_signal(int) { g_stop = true; }
-
-void line(const std::string& text) {
-  std::fputs((text + "\n").c_str(), stdout);
-  std::fflush(stdout);
-}
+using namespace peer_common;
 
 dds_qos_t* default_qos() {
   dds_qos_t* qos = dds_create_qos();
   dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
   dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 10);
   return qos;
-}
-
-template <class F>
-bool wait_for(F&& condition, std::chrono::milliseconds limit) {
-  const auto deadline = Clock::now() + limit;
-  while (!condition()) {
-    if (g_stop || Clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  return true;
 }
 
 int publication_matches(dds_entity_t writer) {
@@ -132,16 +113,7 @@ int subscribe(dds_entity_t participant, const char* topic_name, int count, int t
     }
     if (info[0].valid_data) {
       const auto* p = static_cast<const peer_Pose*>(buffers[0]);
-      std::string samples;
-      for (std::uint32_t k = 0; k < p->samples._length; ++k) {
-        samples += (k ? "," : "") + std::to_string(p->samples._buffer[k]);
-      }
-      char text[1024];
-      std::snprintf(text, sizeof text,
-                    R"({"id":%d,"x":%.17g,"heading":%.9g,"valid":%s,"frame":"%s","samples":[%s],"quad":[%d,%d,%d,%d]})",
-                    p->id, p->x, static_cast<double>(p->heading), p->valid ? "true" : "false", p->frame,
-                    samples.c_str(), p->quad[0], p->quad[1], p->quad[2], p->quad[3]);
-      line(text);
+      pose_line(p->id, p->x, p->heading, p->valid, p->frame, p->samples._buffer, p->samples._length, p->quad);
       ++received;
     }
     dds_return_loan(reader, buffers, n);
@@ -191,10 +163,7 @@ int call(dds_entity_t participant, const char* base, int count, int timeout_ms) 
       // Replies reach every client: keep ours.
       if (info[0].valid_data && std::memcmp(reply->header.related_request_id.writer_guid, guid.v, 16) == 0 &&
           reply->header.related_request_id.sequence_number == static_cast<std::uint64_t>(i)) {
-        char text[256];
-        std::snprintf(text, sizeof text, R"({"seq":%d,"status":%d,"sum":%.17g})", i, reply->header.status,
-                      reply->reply.sum);
-        line(text);
+        reply_line(i, reply->header.status, reply->reply.sum);
         got = true;
         ++answered;
       }
@@ -258,8 +227,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: %s pub|sub|call|serve DOMAIN TOPIC COUNT [ARG] [ARG]\n", argv[0]);
     return 2;
   }
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  stop_on_signals();
   const std::string mode = argv[1];
   const auto domain = static_cast<dds_domainid_t>(std::atoi(argv[2]));
   const char* topic = argv[3];

@@ -23,33 +23,14 @@
 
 #include "peer.h"
 #include "peerPubSubTypes.h"
+#include "peer_common.hpp"
 #include "pose_values.hpp"
 
 using namespace eprosima::fastdds::dds;
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-// SIGINT / SIGTERM end every loop, so the participant is deleted properly (for Fast DDS: its
-// shared-memory segments are released).
-std::atomic<bool> g_stop{false};
-extern "C" void on_signal(int) { g_stop = true; }
-
-void line(const std::string& text) {
-  std::fputs((text + "\n").c_str(), stdout);
-  std::fflush(stdout);
-}
-
-template <class F>
-bool wait_for(F&& condition, std::chrono::milliseconds limit) {
-  const auto deadline = Clock::now() + limit;
-  while (!condition()) {
-    if (g_stop || Clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  return true;
-}
+using namespace peer_common;
 
 class Peer {
  public:
@@ -149,14 +130,8 @@ int subscribe(Peer& peer, const std::string& topic_name, int count, int timeout_
       continue;
     }
     if (!info.valid_data) continue;
-    std::string samples;
-    for (std::size_t k = 0; k < p.samples().size(); ++k) samples += (k ? "," : "") + std::to_string(p.samples()[k]);
-    char text[1024];
-    std::snprintf(text, sizeof text,
-                  R"({"id":%d,"x":%.17g,"heading":%.9g,"valid":%s,"frame":"%s","samples":[%s],"quad":[%d,%d,%d,%d]})",
-                  p.id(), p.x(), static_cast<double>(p.heading()), p.valid() ? "true" : "false", p.frame().c_str(),
-                  samples.c_str(), p.quad()[0], p.quad()[1], p.quad()[2], p.quad()[3]);
-    line(text);
+    pose_line(p.id(), p.x(), p.heading(), p.valid(), p.frame().c_str(), p.samples().data(), p.samples().size(),
+              p.quad().data());
     ++received;
   }
   return received == count ? 0 : 1;
@@ -199,10 +174,7 @@ int call(Peer& peer, const std::string& base, int count, int timeout_ms) {
       // Replies reach every client: keep ours.
       if (info.valid_data && reply.header().related_request_id().writer_guid() == guid &&
           reply.header().related_request_id().sequence_number() == static_cast<std::uint64_t>(i)) {
-        char text[256];
-        std::snprintf(text, sizeof text, R"({"seq":%d,"status":%d,"sum":%.17g})", i, reply.header().status(),
-                      reply.reply().sum());
-        line(text);
+        reply_line(i, reply.header().status(), reply.reply().sum());
         got = true;
         ++answered;
       }
@@ -253,8 +225,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: %s pub|sub|call|serve DOMAIN TOPIC COUNT [ARG] [ARG]\n", argv[0]);
     return 2;
   }
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  stop_on_signals();
   const std::string mode = argv[1];
   const int count = std::atoi(argv[4]);
   const int arg = argc > 5 ? std::atoi(argv[5]) : 0;
