@@ -1,0 +1,109 @@
+// Zero heap allocations per forwarded sample on the DDS passthrough path, against Fast DDS:
+// polyport bridges domain 156 to 157 (tests/data/fastdds/alloc_app.xml). The application's
+// ends are raw endpoints on participants of their own, so the test also sees that the bytes
+// arrive untouched. Counting as in tests/support/alloc_gate.hpp: only polyport's part of the
+// path is asserted; Fast DDS's own allocations are reported.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdio>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "../support/engine_fixture.hpp"
+#include "../support/eventually.hpp"
+#include "dds_model.hpp"
+#include "fastdds_domain.hpp"
+#include "raw_type.hpp"
+
+#include "../support/alloc_gate.hpp"
+
+namespace polyport {
+namespace {
+
+using test::eventually;
+
+class FastddsPassthroughAlloc : public test::EngineFixture {
+ protected:
+  FastddsPassthroughAlloc() : EngineFixture(POLYPORT_TEST_DATA "/fastdds", LoadOptions{}) {
+    models.add(std::make_unique<dds::DdsModel>(
+        "fastdds",
+        [](std::uint32_t domain, const std::string& config) -> Result<std::unique_ptr<dds::Domain>> {
+          auto inner = fastdds::make_fastdds_domain(domain, config);
+          if (!inner) return inner.error();
+          return std::unique_ptr<dds::Domain>(std::make_unique<test::CountingDomain>(std::move(inner).value()));
+        },
+        fastdds::default_config()));
+  }
+};
+
+TEST_F(FastddsPassthroughAlloc, ForwardingASampleAllocatesNothingInPolyport) {
+  ASSERT_TRUE(build("alloc_app.xml")) << problems();
+  std::vector<std::string> warnings;
+  ASSERT_TRUE(engine.start(warnings));
+  {
+    fastdds::ParticipantOptions left_options;
+    left_options.domain_id = 156;
+    fastdds::ParticipantOptions right_options;
+    right_options.domain_id = 157;
+    auto left = fastdds::Participant::create(left_options);
+    auto right = fastdds::Participant::create(right_options);
+    ASSERT_TRUE(left && right);
+    auto writer = fastdds::RawWriter::create(*left.value(), "polyport_alloc_pose", "demo::Pose", DdsQos{});
+    ASSERT_TRUE(writer) << writer.error().message;
+    std::mutex mutex;
+    std::vector<std::vector<std::byte>> received;
+    auto reader = fastdds::RawReader::create(*right.value(), "polyport_alloc_pose", "demo::Pose", DdsQos{},
+                                             [&](const std::byte* cdr, std::uint32_t size, MonoTime) {
+                                               std::lock_guard<std::mutex> lock(mutex);
+                                               received.emplace_back(cdr, cdr + size);
+                                             });
+    ASSERT_TRUE(reader) << reader.error().message;
+    ASSERT_TRUE(eventually([&] { return writer.value()->matched_readers() >= 1; }));
+    ASSERT_TRUE(eventually([&] { return reader.value()->matched_writers() >= 1; }));
+
+    // A demo::Pose as XCDR1 bytes would be; passthrough carries them without looking.
+    std::vector<std::byte> sample(64);
+    sample[1] = std::byte{1};  // CDR_LE
+    auto send_and_wait = [&](int count) {
+      for (int i = 0; i < count; ++i) {
+        sample[4] = static_cast<std::byte>(i);
+        const std::size_t before = [&] {
+          std::lock_guard<std::mutex> lock(mutex);
+          return received.size();
+        }();
+        ASSERT_EQ(writer.value()->write(sample.data(), static_cast<std::uint32_t>(sample.size())), Status::ok);
+        ASSERT_TRUE(eventually([&] {
+          std::lock_guard<std::mutex> lock(mutex);
+          return received.size() > before;
+        })) << "sample " << i << " did not arrive on domain 157";
+      }
+    };
+    send_and_wait(50);  // warm-up
+    const std::uint64_t callbacks_before = test::g_callbacks.load();
+    const std::uint64_t polyport_before = test::g_polyport_allocations.load();
+    const std::uint64_t all_before = test::g_all_allocations.load();
+    constexpr int kSamples = 500;
+    send_and_wait(kSamples);
+    const std::uint64_t polyport = test::g_polyport_allocations.load() - polyport_before;
+    const std::uint64_t all = test::g_all_allocations.load() - all_before;
+    EXPECT_EQ(test::g_callbacks.load() - callbacks_before, static_cast<std::uint64_t>(kSamples));
+    EXPECT_EQ(polyport, 0u) << "polyport allocated on the forwarding path";
+    std::printf("allocations per forwarded sample: polyport %.3f, whole process %.3f\n",
+                static_cast<double>(polyport) / kSamples, static_cast<double>(all) / kSamples);
+    std::lock_guard<std::mutex> lock(mutex);
+    // Untouched: Fast DDS may append padding up to 4-byte alignment, never change a byte.
+    ASSERT_GE(received.back().size(), sample.size());
+    EXPECT_TRUE(std::equal(sample.begin(), sample.end(), received.back().begin()));
+  }
+  nlohmann::json stats;
+  engine.stats(stats);
+  EXPECT_EQ(stats["connections"][0]["conversion"], "passthrough") << stats.dump(2);
+  EXPECT_EQ(stats["connections"][0]["dropped"], 0) << stats.dump(2);
+  engine.stop();
+}
+
+}  // namespace
+}  // namespace polyport
