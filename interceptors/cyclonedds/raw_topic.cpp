@@ -311,10 +311,14 @@ QosPtr to_dds(const Qos& qos) {
   dds_qset_durability(q.get(), qos.durability == Qos::Durability::transient_local
                                    ? DDS_DURABILITY_TRANSIENT_LOCAL
                                    : DDS_DURABILITY_VOLATILE);
-  dds_qset_history(q.get(),
-                   qos.history == Qos::History::keep_last ? DDS_HISTORY_KEEP_LAST
-                                                          : DDS_HISTORY_KEEP_ALL,
-                   qos.depth);
+  const dds_history_kind_t history =
+      qos.history == Qos::History::keep_last ? DDS_HISTORY_KEEP_LAST : DDS_HISTORY_KEEP_ALL;
+  dds_qset_history(q.get(), history, qos.depth);
+  // What a transient-local writer keeps for late readers is its durability service's history,
+  // which Cyclone defaults to keep-last 1; make it the endpoint's history, as the profile says
+  // (and as ROS 2 does).
+  dds_qset_durability_service(q.get(), 0, history, qos.depth, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED,
+                              DDS_LENGTH_UNLIMITED);
   dds_qset_deadline(q.get(), duration(qos.deadline_ns));
   dds_qset_lifespan(q.get(), duration(qos.lifespan_ns));
   const dds_liveliness_kind_t liveliness =

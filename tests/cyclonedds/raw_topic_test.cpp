@@ -322,3 +322,95 @@ TEST_F(CycloneRawTopicTest, RefusesBadArguments) {
 }
 
 }  // namespace
+
+namespace {
+
+// QoS from polyport's DdsQos reaches Cyclone: partitions keep endpoints apart, a
+// transient-local writer gives its history to a late reader, and the writer GUID polyport
+// puts in service requests is the one readers see.
+dds_entity_t generated_reader_in(dds_entity_t participant, dds_entity_t topic, const char* partition,
+                                 bool transient_local) {
+  dds_qos_t* group = dds_create_qos();
+  dds_qset_partition1(group, partition);
+  const dds_entity_t subscriber = dds_create_subscriber(participant, group, nullptr);
+  dds_delete_qos(group);
+  dds_qos_t* qos = dds_create_qos();
+  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 10);
+  if (transient_local) dds_qset_durability(qos, DDS_DURABILITY_TRANSIENT_LOCAL);
+  const dds_entity_t reader = dds_create_reader(subscriber, topic, qos, nullptr);
+  dds_delete_qos(qos);
+  return reader;
+}
+
+TEST_F(CycloneRawTopicTest, PartitionsKeepEndpointsApart) {
+  const std::string topic_name = unique_topic("partitions");
+  polyport::DdsQos qos;
+  qos.partitions = {"robot_a"};
+  auto writer = cyc::RawWriter::create(*participant_, topic_name, kTypeName, qos);
+  ASSERT_TRUE(writer.ok()) << writer.error().message;
+  const dds_entity_t app = dds_create_participant(kDomain, nullptr, nullptr);
+  ASSERT_GT(app, 0);
+  const dds_entity_t topic = dds_create_topic(app, &raw_peer_Pose_desc, topic_name.c_str(), nullptr, nullptr);
+  const dds_entity_t other = generated_reader_in(app, topic, "robot_b", false);
+  const dds_entity_t same = generated_reader_in(app, topic, "robot_a", false);
+  ASSERT_GT(other, 0);
+  ASSERT_GT(same, 0);
+  // Discovery is done once the reader in the same partition matched; the other never does.
+  ASSERT_TRUE(wait_until([&] { return subscription_matches(same) >= 1; }));
+  EXPECT_EQ(writer.value()->matched_readers(), 1);
+  EXPECT_EQ(subscription_matches(other), 0);
+  dds_delete(app);
+}
+
+TEST_F(CycloneRawTopicTest, TransientLocalWriterGivesItsHistoryToALateReader) {
+  const std::string topic_name = unique_topic("transient");
+  polyport::DdsQos qos;
+  qos.durability = polyport::DdsQos::Durability::transient_local;
+  qos.depth = 5;
+  auto writer = cyc::RawWriter::create(*participant_, topic_name, kTypeName, qos);
+  ASSERT_TRUE(writer.ok()) << writer.error().message;
+  PoseValues values = example();
+  for (int i = 0; i < 3; ++i) {
+    values.id = 100 + i;
+    const std::vector<std::byte> wire = pose_.encode(values);
+    ASSERT_EQ(writer.value()->write(wire.data(), static_cast<std::uint32_t>(wire.size())), polyport::Status::ok);
+  }
+  // The reader joins after the writes.
+  const dds_entity_t app = dds_create_participant(kDomain, nullptr, nullptr);
+  const dds_entity_t topic = dds_create_topic(app, &raw_peer_Pose_desc, topic_name.c_str(), nullptr, nullptr);
+  const dds_entity_t reader = generated_reader_in(app, topic, "", true);
+  ASSERT_GT(reader, 0);
+  std::vector<std::int32_t> ids;
+  ASSERT_TRUE(wait_until([&] {
+    void* samples[1] = {nullptr};
+    dds_sample_info_t info{};
+    while (dds_take(reader, samples, &info, 1, 1) == 1) {
+      if (info.valid_data) ids.push_back(static_cast<const raw_peer_Pose*>(samples[0])->id);
+      dds_return_loan(reader, samples, 1);
+    }
+    return ids.size() >= 3;
+  })) << "the late reader got " << ids.size() << " of 3 samples";
+  EXPECT_EQ(ids, (std::vector<std::int32_t>{100, 101, 102}));
+  dds_delete(app);
+}
+
+TEST_F(CycloneRawTopicTest, WriterGuidIsTheOneReadersSee) {
+  const std::string topic_name = unique_topic("guid");
+  auto writer = cyc::RawWriter::create(*participant_, topic_name, kTypeName);
+  ASSERT_TRUE(writer.ok()) << writer.error().message;
+  GeneratedPeer peer(kDomain, topic_name.c_str());
+  const dds_entity_t reader = peer.make_reader();
+  ASSERT_TRUE(wait_until([&] { return subscription_matches(reader) >= 1; }));
+  dds_instance_handle_t handles[4];
+  const dds_return_t n = dds_get_matched_publications(reader, handles, 4);
+  ASSERT_EQ(n, 1);
+  dds_builtintopic_endpoint_t* data = dds_get_matched_publication_data(reader, handles[0]);
+  ASSERT_NE(data, nullptr);
+  const auto guid = writer.value()->guid();
+  EXPECT_EQ(std::memcmp(guid.data(), data->key.v, 16), 0);
+  EXPECT_NE(guid, (std::array<std::uint8_t, 16>{}));
+  dds_builtintopic_free_endpoint(data);
+}
+
+}  // namespace
