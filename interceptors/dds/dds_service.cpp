@@ -163,11 +163,12 @@ Status ServiceServer::submit(PendingCall& call) noexcept {
   Endpoints& ends = endpoints_[call.operation];
   // The sequence number names the slot (sequence % slots), so a reply finds it at once.
   slot->generation += 1;
-  slot->sequence = slot->generation * slots_.size() + index;
+  const std::uint64_t sequence = slot->generation * slots_.size() + index;
+  slot->sequence.store(sequence, std::memory_order_relaxed);
   std::byte* flat = slot->flat.get();
   std::memset(flat, 0, layout.type->size);
   std::memcpy(flat + layout.guid_offset, ends.guid.data(), ends.guid.size());
-  store_u64(flat + layout.sequence_offset, slot->sequence);
+  store_u64(flat + layout.sequence_offset, sequence);
   if (layout.body_size != 0 && call.request_size == layout.body_size) {
     std::memcpy(flat + layout.body_offset, call.request, layout.body_size);
   }
@@ -180,7 +181,7 @@ Status ServiceServer::submit(PendingCall& call) noexcept {
     in_submit_.fetch_sub(1, std::memory_order_seq_cst);
     return status;
   }
-  slot->operation = call.operation;
+  slot->operation.store(call.operation, std::memory_order_relaxed);
   slot->call = &call;
   slot->deadline_ns = (mono_now() + Nanos{timeout_ns_}).ns;
   // Pending before the write: a server in this process may reply inside it.
@@ -224,10 +225,19 @@ void ServiceServer::on_reply(std::uint16_t operation, const std::byte* cdr, std:
   }
   const std::uint64_t sequence = load_u64(flat + layout.sequence_offset);
   CallSlot& slot = slots_[sequence % slots_.size()];
+  auto ours = [&] {
+    return slot.sequence.load(std::memory_order_relaxed) == sequence &&
+           slot.operation.load(std::memory_order_relaxed) == operation;
+  };
   std::uint8_t expected = CallSlot::pending;
-  if (slot.sequence != sequence || slot.operation != operation ||
-      !slot.state.compare_exchange_strong(expected, CallSlot::completing, std::memory_order_acq_rel)) {
+  if (!ours() || !slot.state.compare_exchange_strong(expected, CallSlot::completing, std::memory_order_acq_rel)) {
     counters_.unmatched.fetch_add(1, std::memory_order_relaxed);  // late (timed out) or a duplicate
+    return;
+  }
+  if (!ours()) {
+    // The slot was freed and taken by a newer call between the check and the exchange.
+    slot.state.store(CallSlot::pending, std::memory_order_release);
+    counters_.unmatched.fetch_add(1, std::memory_order_relaxed);
     return;
   }
   std::int32_t code = 0;
@@ -360,7 +370,7 @@ void ServiceClient::on_request(std::uint16_t operation, const std::byte* cdr, st
     return;
   }
   CallSlot& slot = slots_[index];
-  slot.operation = operation;
+  slot.operation.store(operation, std::memory_order_relaxed);
   std::memcpy(slot.identity, identity, kIdentityBytes);
   const Status status = service_.required->request_async(op.name, body, op.request.body_size, *this, index);
   if (status != Status::ok) {
@@ -373,7 +383,8 @@ void ServiceClient::on_request(std::uint16_t operation, const std::byte* cdr, st
 void ServiceClient::on_call_complete(const PendingCall& call, Status status, std::uint64_t tag) noexcept {
   CallSlot& slot = slots_[tag];
   const std::uint32_t body_size = status == Status::ok ? call.reply_size : 0;
-  reply(slot.operation, slot.identity, status, call.reply, body_size, slot.flat.get(), slot.wire.get());
+  reply(slot.operation.load(std::memory_order_relaxed), slot.identity, status, call.reply, body_size,
+        slot.flat.get(), slot.wire.get());
   slot.state.store(CallSlot::free, std::memory_order_release);
 }
 

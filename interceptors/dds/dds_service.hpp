@@ -48,8 +48,10 @@ namespace polyport::dds {
 struct CallSlot {
   enum State : std::uint8_t { free, claimed, pending, completing };
   std::atomic<std::uint8_t> state{free};
-  std::uint16_t operation = 0;
-  std::uint64_t sequence = 0;        // ServiceServer: the sequence number this call was given
+  // Written by the slot's owner while it is claimed; read by a reply's thread before it
+  // tries to take the slot, hence atomic.
+  std::atomic<std::uint16_t> operation{0};
+  std::atomic<std::uint64_t> sequence{0};  // ServiceServer: the sequence number this call was given
   std::uint64_t generation = 0;      // ServiceServer: how many calls the slot has carried
   PendingCall* call = nullptr;       // ServiceServer: the in-process call
   std::int64_t deadline_ns = 0;      // ServiceServer: when the call times out
