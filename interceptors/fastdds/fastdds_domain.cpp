@@ -1,3 +1,5 @@
+// FastddsDomain: dds::Domain over raw_type's Participant, RawWriter and RawReader (threads
+// and ownership: fastdds_domain.hpp).
 #include "fastdds_domain.hpp"
 
 #include <atomic>
@@ -7,6 +9,10 @@
 namespace polyport::fastdds {
 
 namespace {
+
+std::uint32_t max_size_of(const dds::EndpointSpec& spec) {
+  return spec.max_size != 0 ? spec.max_size : kDefaultMaxPayload;
+}
 
 class FastddsWriter final : public dds::Writer {
  public:
@@ -27,7 +33,7 @@ class FastddsDomain final : public dds::Domain {
   std::uint32_t id() const noexcept override { return participant_->domain_id(); }
 
   Result<std::unique_ptr<dds::Writer>> create_writer(const dds::EndpointSpec& spec) override {
-    auto writer = RawWriter::create(*participant_, spec.topic, spec.type_name, spec.qos, spec.max_size);
+    auto writer = RawWriter::create(*participant_, spec.topic, spec.type_name, spec.qos, max_size_of(spec));
     if (!writer) return writer.error();
     return std::unique_ptr<dds::Writer>(std::make_unique<FastddsWriter>(std::move(writer).value()));
   }
@@ -42,7 +48,7 @@ class FastddsDomain final : public dds::Domain {
           callback(cdr, size, source);
           counter->fetch_add(1, std::memory_order_relaxed);
         },
-        spec.max_size);
+        max_size_of(spec));
     if (!reader) return reader.error();
     return std::unique_ptr<dds::Reader>(std::make_unique<CountedReader>(std::move(reader).value(), counter));
   }
@@ -75,6 +81,7 @@ Result<std::unique_ptr<dds::Domain>> make_fastdds_domain(std::uint32_t domain_id
   ParticipantOptions options;
   options.domain_id = domain_id;
   options.profiles_file = config;
+  if (config.empty()) options.transport = Transport::fastdds_defaults;
   auto participant = Participant::create(options);
   if (!participant) return participant.error();
   return std::unique_ptr<dds::Domain>(std::make_unique<FastddsDomain>(std::move(participant).value()));

@@ -22,8 +22,10 @@
 //    destroyed reader.
 #include "raw_type.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <exception>
+#include <limits>
 #include <thread>
 #include <utility>
 
@@ -44,6 +46,8 @@
 #include <fastdds/dds/topic/TypeSupport.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+
+#include "participant_profile.hpp"
 
 namespace polyport::fastdds {
 
@@ -151,16 +155,16 @@ bool RawType::getKey(void*, eprosima::fastrtps::rtps::InstanceHandle_t* handle, 
 
 Result<std::unique_ptr<Participant>> Participant::create(const ParticipantOptions& options) {
   try {
-    dds::DomainParticipantQos qos = dds::PARTICIPANT_QOS_DEFAULT;
     auto* factory = dds::DomainParticipantFactory::get_instance();
+    dds::DomainParticipantQos qos = dds::PARTICIPANT_QOS_DEFAULT;
+    // PARTICIPANT_QOS_DEFAULT itself (not a copy) makes Fast DDS use its own default profile.
+    const dds::DomainParticipantQos* chosen = &qos;
     if (!options.profiles_file.empty()) {
-      // Loading makes the file's default participant profile the factory's default QoS
-      // (process-wide; read at once, before another file can replace it).
-      if (factory->load_XML_profiles_file(options.profiles_file) != ReturnCode_t::RETCODE_OK) {
-        return make_error("fastdds: cannot load the XML profiles file '" + options.profiles_file +
-                          "' (missing, unreadable or not a Fast DDS profiles file; Fast DDS logs why)");
-      }
-      qos = factory->get_default_participant_qos();
+      Result<dds::DomainParticipantQos> from_file = participant_qos_from_file(options.profiles_file);
+      if (!from_file) return from_file.error();
+      qos = std::move(from_file).value();
+    } else if (options.transport == Transport::fastdds_defaults) {
+      chosen = &dds::PARTICIPANT_QOS_DEFAULT;
     } else {
       qos.name(options.name);
       // Replace the built-in transports (SHM + UDPv4 on every interface) with the chosen ones.
@@ -178,10 +182,13 @@ Result<std::unique_ptr<Participant>> Participant::create(const ParticipantOption
       }
     }
     dds::DomainParticipant* native =
-        factory->create_participant(static_cast<dds::DomainId_t>(options.domain_id), qos);
+        factory->create_participant(static_cast<dds::DomainId_t>(options.domain_id), *chosen);
     if (native == nullptr) {
       return make_error("fastdds: cannot create a participant on domain " +
-                        std::to_string(options.domain_id));
+                        std::to_string(options.domain_id) +
+                        (options.profiles_file.empty() ? std::string()
+                                                       : " from '" + options.profiles_file + "'") +
+                        " (Fast DDS logs why)");
     }
     std::unique_ptr<Participant> participant(new Participant());
     participant->domain_id_ = options.domain_id;
@@ -254,36 +261,59 @@ Result<dds::Topic*> Participant::raw_topic(const std::string& topic_name,
 
 namespace {
 
+// nullopt is infinite. Durations past Duration_t's 32-bit seconds (68 years) are infinite
+// too, and negative ones (the loader refuses them) zero, rather than wrapping around.
 eprosima::fastrtps::Duration_t duration(const std::optional<std::int64_t>& ns) {
   if (!ns) return eprosima::fastrtps::c_TimeInfinite;
-  return eprosima::fastrtps::Duration_t(static_cast<std::int32_t>(*ns / 1'000'000'000),
-                                        static_cast<std::uint32_t>(*ns % 1'000'000'000));
+  const std::int64_t value = std::max<std::int64_t>(*ns, 0);
+  if (value / 1'000'000'000 >= std::numeric_limits<std::int32_t>::max()) {
+    return eprosima::fastrtps::c_TimeInfinite;
+  }
+  return eprosima::fastrtps::Duration_t(static_cast<std::int32_t>(value / 1'000'000'000),
+                                        static_cast<std::uint32_t>(value % 1'000'000'000));
 }
 
 template <class EndpointQos>
-void apply(const Qos& in, EndpointQos& out) {
-  out.reliability().kind = in.reliability == Qos::Reliability::reliable
+void apply(const DdsQos& in, EndpointQos& out) {
+  out.reliability().kind = in.reliability == DdsQos::Reliability::reliable
                                ? dds::RELIABLE_RELIABILITY_QOS
                                : dds::BEST_EFFORT_RELIABILITY_QOS;
-  out.durability().kind = in.durability == Qos::Durability::transient_local
+  out.durability().kind = in.durability == DdsQos::Durability::transient_local
                               ? dds::TRANSIENT_LOCAL_DURABILITY_QOS
                               : dds::VOLATILE_DURABILITY_QOS;
   out.history().kind =
-      in.history == Qos::History::keep_all ? dds::KEEP_ALL_HISTORY_QOS : dds::KEEP_LAST_HISTORY_QOS;
+      in.history == DdsQos::History::keep_all ? dds::KEEP_ALL_HISTORY_QOS : dds::KEEP_LAST_HISTORY_QOS;
   out.history().depth = in.depth > 0 ? in.depth : 1;
+  if (in.history == DdsQos::History::keep_last) {
+    // Fast DDS refuses a depth above the per-instance sample limit (400 by default), so a
+    // deep history raises the limits with it.
+    dds::ResourceLimitsQosPolicy& limits = out.resource_limits();
+    const std::int32_t depth = out.history().depth;
+    if (limits.max_samples_per_instance > 0 && limits.max_samples_per_instance < depth) {
+      limits.max_samples_per_instance = depth;
+    }
+    if (limits.max_samples > 0 && limits.max_samples < depth) limits.max_samples = depth;
+  }
   out.deadline().period = duration(in.deadline_ns);
   out.lifespan().duration = duration(in.lifespan_ns);
-  out.liveliness().kind = in.liveliness == Qos::Liveliness::automatic ? dds::AUTOMATIC_LIVELINESS_QOS
-                          : in.liveliness == Qos::Liveliness::manual_by_participant
+  out.liveliness().kind = in.liveliness == DdsQos::Liveliness::automatic ? dds::AUTOMATIC_LIVELINESS_QOS
+                          : in.liveliness == DdsQos::Liveliness::manual_by_participant
                               ? dds::MANUAL_BY_PARTICIPANT_LIVELINESS_QOS
                               : dds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
   out.liveliness().lease_duration = duration(in.lease_ns);
+  if (in.lease_ns && out.liveliness().lease_duration != eprosima::fastrtps::c_TimeInfinite) {
+    // Fast DDS asserts automatic / per-participant liveliness every announcement_period and
+    // refuses a writer whose period (infinite by default) is not below its lease. A third of
+    // the lease lets two assertions go missing before a reader declares the writer lost.
+    const std::int64_t lease = std::max<std::int64_t>(*in.lease_ns, 3);
+    out.liveliness().announcement_period = duration(lease / 3);
+  }
   // Data sharing needs a plain type; say so instead of relying on AUTO's silent fallback.
   out.data_sharing().off();
 }
 
 template <class GroupQos>
-void apply_partitions(const Qos& in, GroupQos& out) {
+void apply_partitions(const DdsQos& in, GroupQos& out) {
   for (const std::string& name : in.partitions) out.partition().push_back(name.c_str());
 }
 
@@ -293,7 +323,7 @@ void apply_partitions(const Qos& in, GroupQos& out) {
 
 Result<std::unique_ptr<RawWriter>> RawWriter::create(Participant& participant,
                                                      const std::string& topic_name,
-                                                     const std::string& type_name, const Qos& qos,
+                                                     const std::string& type_name, const DdsQos& qos,
                                                      std::uint32_t max_size) {
   Result<dds::Topic*> topic = participant.raw_topic(topic_name, type_name, max_size);
   if (!topic) return topic.error();  // also when type_name is registered keyed (see getKey)
@@ -374,7 +404,7 @@ class RawReader::Listener final : public dds::DataReaderListener {
 
 Result<std::unique_ptr<RawReader>> RawReader::create(Participant& participant,
                                                      const std::string& topic_name,
-                                                     const std::string& type_name, const Qos& qos,
+                                                     const std::string& type_name, const DdsQos& qos,
                                                      Callback callback, std::uint32_t max_size,
                                                      bool keyed) {
   if (!callback) return make_error("fastdds: reader on " + topic_name + " without a callback");

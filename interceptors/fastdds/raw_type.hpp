@@ -99,26 +99,33 @@ class RawType final : public eprosima::fastdds::dds::TopicDataType {
 //    peer announces 127.0.0.1). No shared memory to leak.
 //  - shm: shared memory only. Reaches only peers that also use SHM, on this host, sharing
 //    /dev/shm (not another container without it).
+//  - fastdds_defaults: whatever a plain Fast DDS application gets: the default participant
+//    profile of the file FASTRTPS_DEFAULT_PROFILES_FILE names (or DEFAULT_FASTRTPS_PROFILES.xml
+//    in the working directory), which Fast DDS loads by itself, else its built-in transports
+//    (SHM + UDPv4 on every interface: not restricted to this host). `name` is not used.
 // Data sharing (zero copy) is switched off on every raw endpoint regardless: it needs a
 // plain (fixed-size) type, and a raw payload is not one.
-enum class Transport : std::uint8_t { udp_loopback, shm, shm_and_udp_loopback };
+enum class Transport : std::uint8_t { udp_loopback, shm, shm_and_udp_loopback, fastdds_defaults };
 
 struct ParticipantOptions {
   std::uint32_t domain_id = 0;
   Transport transport = Transport::shm_and_udp_loopback;
   std::string name = "polyport";
-  // A Fast DDS XML profiles file: when set, the participant QoS (transports included) is the
-  // file's participant profile marked is_default_profile="true" (Fast DDS's own defaults if
-  // it marks none), and `transport` and `name` are not used.
+  // A Fast DDS XML profiles file: when set, the participant QoS (transports and name
+  // included) is the file's participant profile marked is_default_profile="true", else its
+  // first participant profile (participant_profile.hpp), and `transport` and `name` are not
+  // used. config/fastdds-loopback.xml is the file form of shm_and_udp_loopback.
   std::string profiles_file;
 };
 
-// Endpoint QoS: polyport's DdsQos (profile.hpp), every field mapped onto Fast DDS's. Its
-// defaults (reliable, volatile, keep_last 10) are what ROS 2's default profile and
-// fastddsgen's example apps use, so a default peer matches (a reliable reader does not match
-// a best-effort writer, and a transient_local reader does not match a volatile one).
-// Partitions go on the endpoint's own publisher / subscriber.
-using Qos = DdsQos;
+// Endpoint QoS is polyport's DdsQos (profile.hpp), every field mapped onto Fast DDS's
+// DataWriterQos / DataReaderQos (raw_type.cpp, apply): reliability, durability, history kind
+// and depth, deadline, lifespan (writers and, as Fast DDS 2.9 has it, readers), liveliness
+// kind and lease; nullopt durations are infinite. Partitions go on the endpoint's own
+// publisher / subscriber. Its defaults (reliable, volatile, keep_last 10) are what ROS 2's
+// default profile and fastddsgen's example apps use, so a default peer matches (a reliable
+// reader does not match a best-effort writer, and a transient_local reader does not match a
+// volatile one).
 
 class Participant {
  public:
@@ -149,7 +156,7 @@ class RawWriter {
  public:
   static Result<std::unique_ptr<RawWriter>> create(Participant& participant,
                                                    const std::string& topic_name,
-                                                   const std::string& type_name, const Qos& qos,
+                                                   const std::string& type_name, const DdsQos& qos,
                                                    std::uint32_t max_size = kDefaultMaxPayload);
   ~RawWriter();
   RawWriter(const RawWriter&) = delete;
@@ -179,7 +186,7 @@ class RawReader {
 
   static Result<std::unique_ptr<RawReader>> create(Participant& participant,
                                                    const std::string& topic_name,
-                                                   const std::string& type_name, const Qos& qos,
+                                                   const std::string& type_name, const DdsQos& qos,
                                                    Callback callback,
                                                    std::uint32_t max_size = kDefaultMaxPayload,
                                                    bool keyed = false);
