@@ -33,14 +33,7 @@ using test::g_polyport_allocations;
 class PassthroughAlloc : public test::EngineFixture {
  protected:
   PassthroughAlloc() : EngineFixture(POLYPORT_TEST_DATA "/cyclonedds", LoadOptions{}) {
-    models.add(std::make_unique<dds::DdsModel>(
-        "cyclonedds",
-        [](std::uint32_t domain, const std::string& config) -> Result<std::unique_ptr<dds::Domain>> {
-          auto inner = cyclonedds::make_cyclonedds_domain(domain, config);
-          if (!inner) return inner.error();
-          return std::unique_ptr<dds::Domain>(std::make_unique<test::CountingDomain>(std::move(inner).value()));
-        },
-        cyclonedds::default_config()));
+    models.add(test::counting_model("cyclonedds", cyclonedds::make_cyclonedds_domain, cyclonedds::default_config()));
   }
 };
 

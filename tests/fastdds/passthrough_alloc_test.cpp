@@ -28,14 +28,7 @@ using test::eventually;
 class FastddsPassthroughAlloc : public test::EngineFixture {
  protected:
   FastddsPassthroughAlloc() : EngineFixture(POLYPORT_TEST_DATA "/fastdds", LoadOptions{}) {
-    models.add(std::make_unique<dds::DdsModel>(
-        "fastdds",
-        [](std::uint32_t domain, const std::string& config) -> Result<std::unique_ptr<dds::Domain>> {
-          auto inner = fastdds::make_fastdds_domain(domain, config);
-          if (!inner) return inner.error();
-          return std::unique_ptr<dds::Domain>(std::make_unique<test::CountingDomain>(std::move(inner).value()));
-        },
-        fastdds::default_config()));
+    models.add(test::counting_model("fastdds", fastdds::make_fastdds_domain, fastdds::default_config()));
   }
 };
 

@@ -14,6 +14,7 @@
 #include <memory>
 
 #include "dds_endpoint.hpp"
+#include "dds_model.hpp"
 
 // Counting at malloc itself (glibc's entry points, interposed), so C code (Cyclone) and C++
 // code (operator new goes through malloc) are both seen.
@@ -118,5 +119,18 @@ class CountingDomain final : public dds::Domain {
  private:
   std::unique_ptr<dds::Domain> inner_;
 };
+
+// A DDS model whose domains (made by `make`) count polyport's allocations.
+inline std::unique_ptr<dds::DdsModel> counting_model(std::string name, dds::DdsModel::DomainFactory make,
+                                                     std::string default_config) {
+  return std::make_unique<dds::DdsModel>(
+      std::move(name),
+      [make = std::move(make)](std::uint32_t domain, const std::string& config) -> Result<std::unique_ptr<dds::Domain>> {
+        auto inner = make(domain, config);
+        if (!inner) return inner.error();
+        return std::unique_ptr<dds::Domain>(std::make_unique<CountingDomain>(std::move(inner).value()));
+      },
+      std::move(default_config));
+}
 
 }  // namespace polyport::test
