@@ -1069,3 +1069,144 @@ TEST(ProfileSchema, DdsFixturesAgainstTheXsd) {
 }
 
 }  // namespace
+
+namespace {
+
+// More of the DDS elements (tests/data/profiles/dds): per-port QoS on event and service
+// ports, every bad value at its place, and DDS elements on a component of another model.
+TEST_F(ProfileLoader, DdsQosOfEventAndServicePortsOverTheComponents) {
+  const auto app = load("dds/port_qos_app.xml");
+  ASSERT_TRUE(app.has_value()) << ::testing::PrintToString(messages());
+  // Only the event port's lifespan (50 ms) under the component's deadline (100 ms).
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      "dds/PortQos.xml:17:7: /component_profile/ports/event_port/qos: warning: lifespan_ms is shorter than "
+      "deadline_ms: readers may miss every deadline",
+  }));
+  const ComponentProfile& profile = app->find_component("comp")->profile;
+  EXPECT_FALSE(profile.dds_qos.lease_ns.has_value());  // 0: infinite
+  EXPECT_EQ(profile.dds_qos.deadline_ns, 100'000'000);
+  EXPECT_EQ(profile.dds_max_calls_in_flight, 16u);     // <dds> without the service limits
+  EXPECT_EQ(profile.dds_call_timeout_ns, 1'000'000'000);
+
+  const PortSpec* event = profile.find_port("ev");
+  ASSERT_NE(event, nullptr);
+  EXPECT_EQ(event->kind, PortKind::event);
+  EXPECT_EQ(event->topic, "");  // the port's name is the topic
+  const DdsQos& ev = event->qos;
+  EXPECT_EQ(ev.durability, DdsQos::Durability::transient_local);          // the port's
+  EXPECT_EQ(ev.liveliness, DdsQos::Liveliness::manual_by_participant);    // the port's
+  EXPECT_EQ(ev.lease_ns, 1'250'000);                                      // over the component's 0
+  EXPECT_EQ(ev.lifespan_ns, 50'000'000);                                  // the port's
+  EXPECT_EQ(ev.history, DdsQos::History::keep_all);                       // the component's
+  EXPECT_EQ(ev.deadline_ns, 100'000'000);                                 // the component's
+  EXPECT_EQ(ev.partitions, (std::vector<std::string>{"x"}));              // the component's
+  EXPECT_EQ(ev.reliability, DdsQos::Reliability::reliable);               // the default
+  EXPECT_EQ(ev.depth, 10);                                                // the default
+
+  const PortSpec* service = profile.find_port("svc");
+  ASSERT_NE(service, nullptr);
+  EXPECT_EQ(service->kind, PortKind::service);
+  EXPECT_EQ(service->topic, "calc/v1");
+  const DdsQos& svc = service->qos;
+  EXPECT_EQ(svc.reliability, DdsQos::Reliability::best_effort);
+  EXPECT_EQ(svc.history, DdsQos::History::keep_last);  // back from the component's keep_all
+  EXPECT_EQ(svc.depth, 2);
+  EXPECT_FALSE(svc.deadline_ns.has_value());           // 0 over the component's 100 ms
+  EXPECT_EQ(svc.partitions, (std::vector<std::string>{"y", "z"}));  // replaced, not added
+  EXPECT_EQ(svc.durability, DdsQos::Durability::volatile_);
+  EXPECT_EQ(svc.liveliness, DdsQos::Liveliness::automatic);
+  EXPECT_FALSE(svc.lifespan_ns.has_value());
+  EXPECT_FALSE(svc.lease_ns.has_value());
+
+  ASSERT_EQ(service->operations.size(), 2u);
+  const OperationSpec& get = service->operations[0];
+  EXPECT_EQ(get.name, "get");
+  EXPECT_EQ(get.request_type, "");
+  EXPECT_EQ(get.reply_type, "q::Result");
+  EXPECT_EQ(get.dds_request_type, "q::Get_Request");
+  EXPECT_EQ(get.dds_reply_type, "q::Get_Reply");
+  const OperationSpec& fire = service->operations[1];
+  EXPECT_TRUE(fire.oneway);
+  EXPECT_EQ(fire.dds_request_type, "q::Fire_Request");
+  EXPECT_EQ(fire.dds_reply_type, "");  // a oneway operation needs none
+}
+
+TEST_F(ProfileLoader, DdsBadValuesAtTheirPlaces) {
+  EXPECT_FALSE(load("dds/bad_values_app.xml").has_value());
+  const std::string ms = ": expected a number of milliseconds from 0 to 86400000";
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      "dds/BadValues.xml:8:19: /component_profile/dds/qos/durability: bad durability 'persistent' (accepted: "
+      "volatile, transient_local)",
+      "dds/BadValues.xml:9:16: /component_profile/dds/qos/history: bad history 'keep_some' (accepted: keep_last, "
+      "keep_all)",
+      "dds/BadValues.xml:10:14: /component_profile/dds/qos/depth: bad history depth 'two': expected an integer "
+      "from 1 to 2147483647",
+      "dds/BadValues.xml:11:20: /component_profile/dds/qos/deadline_ms: bad deadline_ms 'soon'" + ms,
+      "dds/BadValues.xml:12:20: /component_profile/dds/qos/lifespan_ms: bad lifespan_ms '86400001'" + ms,
+      "dds/BadValues.xml:13:19: /component_profile/dds/qos/liveliness: bad liveliness 'manual' (accepted: "
+      "automatic, manual_by_participant, manual_by_topic)",
+      "dds/BadValues.xml:14:17: /component_profile/dds/qos/lease_ms: bad lease_ms '-5'" + ms,
+      "dds/BadValues.xml:16:26: /component_profile/dds/max_calls_in_flight: bad max_calls_in_flight '4097': "
+      "expected an integer from 1 to 4096",
+      "dds/BadValues.xml:17:22: /component_profile/dds/call_timeout_ms: bad call_timeout_ms '-1'" + ms,
+      "dds/BadValues.xml:22:22: /component_profile/ports/data_port/qos/reliability: bad reliability 'Reliable' "
+      "(accepted: reliable, best_effort)",
+      "dds/BadValues.xml:23:16: /component_profile/ports/data_port/qos/depth: bad history depth '2147483648': "
+      "expected an integer from 1 to 2147483647",
+      // xs:decimal has no exponent, and neither has the loader.
+      "dds/BadValues.xml:24:19: /component_profile/ports/data_port/qos/lease_ms: bad lease_ms '1e3'" + ms,
+      "dds/BadValues.xml:29:7: /component_profile/ports/service_port/operation[2]: missing attribute "
+      "'dds_request': the struct a DDS application writes on the request topic (a polyport::rpc::RequestHeader, "
+      "then the request)",
+      // Type names resolve after every file is read, like request and reply.
+      "dds/BadValues.xml:28:77: /component_profile/ports/service_port/operation[1]/@dds_request: unknown type "
+      "'q::NoRequest'",
+      "dds/BadValues.xml:28:102: /component_profile/ports/service_port/operation[1]/@dds_reply: unknown type "
+      "'q::NoReply'",
+  }));
+}
+
+TEST_F(ProfileLoader, DdsElementsOnAnInprocComponentWarnAndAreIgnored) {
+  const auto app = load("dds/inproc_app.xml");
+  ASSERT_TRUE(app.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      "dds/InprocService.xml:8:3: /component_profile/dds: warning: <dds> is ignored by model 'inproc'",
+      "dds/InprocService.xml:10:83: /component_profile/ports/data_port/topic: warning: <topic> is ignored by "
+      "model 'inproc'",
+      "dds/InprocService.xml:12:7: /component_profile/ports/service_port/qos: warning: <qos> is ignored by model "
+      "'inproc'",
+      "dds/InprocService.xml:13:7: /component_profile/ports/service_port/operation[1]: warning: dds_request / "
+      "dds_reply are ignored by model 'inproc'",
+  }));
+  const PortSpec* service = app->find_component("inproc")->profile.find_port("svc");
+  ASSERT_NE(service, nullptr);
+  ASSERT_EQ(service->operations.size(), 2u);
+  // Ignored: not kept, and 'q::Nothing' (no such type) is not looked up.
+  EXPECT_EQ(service->operations[0].dds_request_type, "");
+  EXPECT_EQ(service->operations[0].dds_reply_type, "");
+  EXPECT_EQ(service->operations[0].request_type, "q::Args");
+  EXPECT_EQ(service->operations[1].name, "plain");  // no dds_request needed
+}
+
+TEST(ProfileSchema, DdsFixturesValidAndInvalid) {
+  if (std::system("xmllint --version > /dev/null 2>&1") != 0) {
+    GTEST_SKIP() << "xmllint not installed (libxml2-utils)";
+  }
+  const auto validates = [](const fs::path& file) {
+    const std::string command = "xmllint --noout --schema '" + schema_file().string() + "' '" +
+                                file.string() + "' > /dev/null 2>&1";
+    return std::system(command.c_str()) == 0;
+  };
+  const fs::path dir = profiles_dir() / "dds";
+  // InprocService.xml: the loader warns about its DDS elements; the schema has no rule
+  // tying them to the model.
+  for (const char* valid : {"QosComp.xml", "qos_app.xml", "PortQos.xml", "port_qos_app.xml", "Inproc.xml",
+                            "InprocService.xml", "inproc_app.xml", "bad_qos_app.xml", "bad_values_app.xml"}) {
+    EXPECT_TRUE(validates(dir / valid)) << valid;
+  }
+  for (const char* invalid : {"BadQos.xml", "BadValues.xml"}) {
+    EXPECT_FALSE(validates(dir / invalid)) << invalid;
+  }
+}
+
+}  // namespace
