@@ -1,5 +1,6 @@
 // What the two ping-pong programs share: stopping on a signal, the clock, the ping loop and
-// the percentiles of its one run, printed as one JSON line.
+// the percentiles of its one run, printed as one JSON line. Single-threaded: the ping loop runs
+// on main; the SDKs' own threads only deliver into the reader the loop waits on.
 #pragma once
 
 #include <algorithm>
@@ -38,37 +39,62 @@ inline std::string summary(std::vector<std::int64_t> v) {
   return text;
 }
 
-// One line on stdout: round trips and one-way (= round trip / 2), in nanoseconds.
-inline void report(const char* vendor, int size, int warmup, const std::vector<std::int64_t>& rtt, int lost) {
+// One line on stdout: round trips, one-way (= round trip / 2) and the SDK's write call in the
+// ping process, in nanoseconds. The write is there to compare with polyport's sink time, the
+// same SDK's write (of bytes already serialized) on polyport's side of a hop.
+inline void report(const char* vendor, int size, int warmup, const std::vector<std::int64_t>& rtt,
+                   const std::vector<std::int64_t>& write_ns, int lost) {
   std::vector<std::int64_t> one_way;
   one_way.reserve(rtt.size());
   for (std::int64_t r : rtt) one_way.push_back(r / 2);
-  std::printf(R"({"vendor":"%s","size":%d,"warmup":%d,"lost":%d,"rtt_ns":%s,"one_way_ns":%s})"
+  std::printf(R"({"vendor":"%s","size":%d,"warmup":%d,"lost":%d,"rtt_ns":%s,"one_way_ns":%s,"write_ns":%s})"
               "\n",
-              vendor, size, warmup, lost, summary(rtt).c_str(), summary(one_way).c_str());
+              vendor, size, warmup, lost, summary(rtt).c_str(), summary(one_way).c_str(), summary(write_ns).c_str());
   std::fflush(stdout);
 }
 
+// Every measured round trip and its write call in nanoseconds, one pair per line, so that a
+// runner can pool the samples of several ping processes before taking percentiles (percentiles
+// do not merge).
+inline bool write_samples(const char* path, const std::vector<std::int64_t>& rtt,
+                          const std::vector<std::int64_t>& write_ns) {
+  std::FILE* out = std::fopen(path, "w");
+  if (out == nullptr) return false;
+  for (std::size_t i = 0; i < rtt.size(); ++i) {
+    std::fprintf(out, "%lld %lld\n", static_cast<long long>(rtt[i]), static_cast<long long>(write_ns[i]));
+  }
+  return std::fclose(out) == 0;
+}
+
 // Warm-up then `rounds` round trips: write(seq) publishes a ping (false: give up), echoed(seq)
-// waits (at most a second) for the pong with that sequence number. Prints the report.
+// waits (at most a second) for the pong with that sequence number. Prints the report and,
+// when `samples_path` is given, writes every measured round trip there.
 template <class Write, class Echoed>
-int run_ping(const char* vendor, int size, int rounds, int warmup, Write write, Echoed echoed) {
+int run_ping(const char* vendor, int size, int rounds, int warmup, const char* samples_path, Write write,
+             Echoed echoed) {
   std::vector<std::int64_t> rtt;
+  std::vector<std::int64_t> write_time;
   rtt.reserve(static_cast<std::size_t>(rounds));
+  write_time.reserve(static_cast<std::size_t>(rounds));
   int lost = 0;
   for (int i = 0; i < warmup + rounds && !g_stop; ++i) {
     const auto seq = static_cast<std::uint64_t>(i);
     const std::int64_t t0 = now_ns();
     if (!write(seq)) return 1;
+    const std::int64_t t_written = now_ns();
     const bool got = echoed(seq);
     const std::int64_t t1 = now_ns();
     if (!got) {
       ++lost;
       continue;
     }
-    if (i >= warmup) rtt.push_back(t1 - t0);
+    if (i >= warmup) {
+      rtt.push_back(t1 - t0);
+      write_time.push_back(t_written - t0);
+    }
   }
-  report(vendor, size, warmup, rtt, lost);
+  report(vendor, size, warmup, rtt, write_time, lost);
+  if (samples_path != nullptr && !write_samples(samples_path, rtt, write_time)) return 1;
   return 0;
 }
 

@@ -1,7 +1,14 @@
 // Cyclone DDS ping-pong (idlc-generated bench types, C API): `ping` writes a sample on
-// "ping" and waits (waitset) for the same sequence number on "pong"; `pong` echoes.
-//   pingpong_cyclone ping DOMAIN SIZE ROUNDS WARMUP     prints one JSON line (stats.hpp)
-//   pingpong_cyclone pong DOMAIN SIZE                   until SIGINT / SIGTERM
+// "ping" and waits (waitset, main thread) for the same sequence number on "pong"; `pong`
+// echoes from a data-available listener, on Cyclone's receive thread, as ddsperf's pong does
+// and as polyport forwards: the direct figure is then the SDK's best, not one with an extra
+// wake-up of a second thread per hop. `relay` is what a bridge written natively with these
+// types does: "ping" from domain A to B and "pong" from B to A, each forwarded from a
+// listener; the runner sets it beside polyportd to tell polyport's cost from the SDK hops'.
+//   pingpong_cyclone ping DOMAIN SIZE ROUNDS WARMUP [SAMPLES]   one JSON line (pingpong_common.hpp);
+//                                                               SAMPLES: every round trip, ns
+//   pingpong_cyclone pong DOMAIN SIZE                           until SIGINT / SIGTERM
+//   pingpong_cyclone relay DOMAIN_A DOMAIN_B SIZE               until SIGINT / SIGTERM
 // QoS: reliable, keep-last 10, volatile (polyport's defaults). Clock: CLOCK_MONOTONIC.
 #include <atomic>
 #include <csignal>
@@ -24,18 +31,65 @@ struct Endpoints {
   dds_entity_t participant, writer, reader, waitset;
 };
 
-Endpoints open(dds_domainid_t domain, const dds_topic_descriptor_t* type, const char* out, const char* in) {
-  Endpoints e{};
-  e.participant = dds_create_participant(domain, nullptr, nullptr);
+dds_qos_t* endpoint_qos() {
   dds_qos_t* qos = dds_create_qos();
   dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
   dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 10);
-  e.writer = dds_create_writer(e.participant, dds_create_topic(e.participant, type, out, nullptr, nullptr), qos, nullptr);
-  e.reader = dds_create_reader(e.participant, dds_create_topic(e.participant, type, in, nullptr, nullptr), qos, nullptr);
+  return qos;
+}
+
+dds_entity_t make_writer(dds_entity_t participant, const dds_topic_descriptor_t* type, const char* topic) {
+  dds_qos_t* qos = endpoint_qos();
+  const dds_entity_t writer =
+      dds_create_writer(participant, dds_create_topic(participant, type, topic, nullptr, nullptr), qos, nullptr);
   dds_delete_qos(qos);
+  return writer;
+}
+
+// On Cyclone's receive thread: writes every sample taken to the writer `arg` points to, from
+// the loaned sample (pong's echo, the relay's forward).
+void forward(dds_entity_t reader, void* arg) {
+  const dds_entity_t writer = *static_cast<const dds_entity_t*>(arg);
+  void* buffers[8] = {};
+  dds_sample_info_t info[8];
+  for (;;) {
+    const dds_return_t n = dds_take(reader, buffers, info, 8, 8);
+    if (n <= 0) return;
+    for (dds_return_t i = 0; i < n; ++i) {
+      if (info[i].valid_data) dds_write(writer, buffers[i]);
+    }
+    dds_return_loan(reader, buffers, n);
+  }
+}
+
+// `to` (pong, relay): forward() writes there; it must be set and outlive the reader.
+dds_entity_t make_reader(dds_entity_t participant, const dds_topic_descriptor_t* type, const char* topic,
+                         const dds_entity_t* to = nullptr) {
+  dds_qos_t* qos = endpoint_qos();
+  dds_listener_t* listener = nullptr;
+  if (to != nullptr) {
+    listener = dds_create_listener(const_cast<dds_entity_t*>(to));
+    dds_lset_data_available(listener, forward);
+  }
+  const dds_entity_t reader =
+      dds_create_reader(participant, dds_create_topic(participant, type, topic, nullptr, nullptr), qos, listener);
+  if (listener != nullptr) dds_delete_listener(listener);
+  dds_delete_qos(qos);
+  return reader;
+}
+
+Endpoints open_ping(dds_domainid_t domain, const dds_topic_descriptor_t* type) {
+  Endpoints e{};
+  e.participant = dds_create_participant(domain, nullptr, nullptr);
+  e.writer = make_writer(e.participant, type, "ping");
+  e.reader = make_reader(e.participant, type, "pong");
   e.waitset = dds_create_waitset(e.participant);
   dds_waitset_attach(e.waitset, dds_create_readcondition(e.reader, DDS_ANY_STATE), 0);
   return e;
+}
+
+void wait_for_stop() {
+  while (!g_stop) dds_sleepfor(DDS_MSECS(100));
 }
 
 bool matched(const Endpoints& e) {
@@ -65,8 +119,9 @@ bool take_one(const Endpoints& e, void* sample, std::size_t bytes, dds_duration_
 }
 
 template <class T>
-int ping(dds_domainid_t domain, const dds_topic_descriptor_t* type, int rounds, int warmup, int size) {
-  const Endpoints e = open(domain, type, "ping", "pong");
+int ping(dds_domainid_t domain, const dds_topic_descriptor_t* type, int rounds, int warmup, int size,
+         const char* samples) {
+  const Endpoints e = open_ping(domain, type);
   const std::int64_t deadline = now_ns() + 30'000'000'000;
   while (!matched(e)) {
     if (g_stop || now_ns() > deadline) return 1;
@@ -75,7 +130,7 @@ int ping(dds_domainid_t domain, const dds_topic_descriptor_t* type, int rounds, 
   T sample{};
   T echo{};
   const int rc = bench::run_ping(
-      "cyclonedds", size, rounds, warmup,
+      "cyclonedds", size, rounds, warmup, samples,
       [&](std::uint64_t seq) {
         sample.seq = seq;
         return dds_write(e.writer, &sample) == DDS_RETCODE_OK;
@@ -90,14 +145,28 @@ int ping(dds_domainid_t domain, const dds_topic_descriptor_t* type, int rounds, 
   return rc;
 }
 
-template <class T>
 int pong(dds_domainid_t domain, const dds_topic_descriptor_t* type) {
-  const Endpoints e = open(domain, type, "pong", "ping");
-  T sample{};
-  while (!g_stop) {
-    if (take_one(e, &sample, sizeof sample, DDS_MSECS(200))) dds_write(e.writer, &sample);
-  }
-  dds_delete(e.participant);
+  const dds_entity_t participant = dds_create_participant(domain, nullptr, nullptr);
+  static dds_entity_t echo = 0;  // forward()'s argument: set before the reader exists
+  echo = make_writer(participant, type, "pong");
+  make_reader(participant, type, "ping", &echo);
+  wait_for_stop();
+  dds_delete(participant);
+  return 0;
+}
+
+int relay(dds_domainid_t a, dds_domainid_t b, const dds_topic_descriptor_t* type) {
+  const dds_entity_t on_a = dds_create_participant(a, nullptr, nullptr);
+  const dds_entity_t on_b = dds_create_participant(b, nullptr, nullptr);
+  static dds_entity_t ping_to_b = 0;  // forward()'s arguments: set before the readers exist
+  static dds_entity_t pong_to_a = 0;
+  ping_to_b = make_writer(on_b, type, "ping");
+  pong_to_a = make_writer(on_a, type, "pong");
+  make_reader(on_a, type, "ping", &ping_to_b);
+  make_reader(on_b, type, "pong", &pong_to_a);
+  wait_for_stop();
+  dds_delete(on_a);
+  dds_delete(on_b);
   return 0;
 }
 
@@ -105,23 +174,27 @@ int pong(dds_domainid_t domain, const dds_topic_descriptor_t* type) {
 
 int main(int argc, char** argv) {
   bench::stop_on_signals();
-  if (argc < 4) {
-    std::fprintf(stderr, "usage: %s ping DOMAIN SIZE ROUNDS WARMUP | pong DOMAIN SIZE\n", argv[0]);
+  const std::string mode = argc > 1 ? argv[1] : "";
+  const auto size_at = [&](int i) { return argc > i ? std::atoi(argv[i]) : 0; };
+  const auto domain_at = [&](int i) { return static_cast<dds_domainid_t>(std::atoi(argv[i])); };
+  const int size = mode == "relay" ? size_at(4) : size_at(3);
+  if (size != 16 && size != 1024) {
+    std::fprintf(stderr,
+                 "usage: %s ping DOMAIN SIZE ROUNDS WARMUP [SAMPLES] | pong DOMAIN SIZE | relay DOMAIN_A DOMAIN_B SIZE\n"
+                 "       SIZE: 16 or 1024\n",
+                 argv[0]);
     return 2;
   }
-  const std::string mode = argv[1];
-  const auto domain = static_cast<dds_domainid_t>(std::atoi(argv[2]));
-  const int size = std::atoi(argv[3]);
   const bool small = size == 16;
-  if (!small && size != 1024) return 2;
+  const dds_topic_descriptor_t* type = small ? &bench_Ping16_desc : &bench_Ping1k_desc;
   if (mode == "ping" && argc >= 6) {
     const int rounds = std::atoi(argv[4]);
     const int warmup = std::atoi(argv[5]);
-    return small ? ping<bench_Ping16>(domain, &bench_Ping16_desc, rounds, warmup, size)
-                 : ping<bench_Ping1k>(domain, &bench_Ping1k_desc, rounds, warmup, size);
+    const char* samples = argc >= 7 ? argv[6] : nullptr;
+    return small ? ping<bench_Ping16>(domain_at(2), type, rounds, warmup, size, samples)
+                 : ping<bench_Ping1k>(domain_at(2), type, rounds, warmup, size, samples);
   }
-  if (mode == "pong") {
-    return small ? pong<bench_Ping16>(domain, &bench_Ping16_desc) : pong<bench_Ping1k>(domain, &bench_Ping1k_desc);
-  }
+  if (mode == "pong") return pong(domain_at(2), type);
+  if (mode == "relay") return relay(domain_at(2), domain_at(3), type);
   return 2;
 }

@@ -1,8 +1,15 @@
 // Fast DDS ping-pong (fastddsgen-generated bench types): `ping` writes a sample on "ping" and
-// waits (wait_for_unread_message) for the same sequence number on "pong"; `pong` echoes.
-// Same command line and output as pingpong_cyclone. QoS: reliable, keep-last 10, volatile.
+// waits (wait_for_unread_message, main thread) for the same sequence number on "pong"; `pong`
+// echoes from on_data_available, on Fast DDS's receive thread, as polyport forwards (and as
+// the Cyclone pong does). `relay` forwards "ping" from domain A to B and "pong" from B to A
+// with these types, from listeners: a bridge written natively (pingpong_cyclone has the same).
+// Same command line and output as pingpong_cyclone (ping, pong, relay). QoS: reliable,
+// keep-last 10, volatile.
 // Transports: Fast DDS's default participant profile (the runner points
-// FASTRTPS_DEFAULT_PROFILES_FILE at config/fastdds-loopback.xml).
+// FASTRTPS_DEFAULT_PROFILES_FILE at config/fastdds-loopback.xml). Data sharing: Fast DDS's
+// default (AUTO: the generated types are plain and bounded, so two of these programs share
+// their samples in memory); POLYPORT_BENCH_FASTDDS_DATA_SHARING=off turns it off, which is
+// what a hop to or from polyport gets (its raw byte type is not plain).
 #include <atomic>
 #include <csignal>
 #include <cstdlib>
@@ -36,30 +43,73 @@ struct Endpoints {
   DataReader* reader = nullptr;
 };
 
-template <class PubSub>
-Endpoints open(int domain, const char* out, const char* in) {
-  Endpoints e;
-  e.participant = DomainParticipantFactory::get_instance()->create_participant(domain, PARTICIPANT_QOS_DEFAULT);
-  TypeSupport type(new PubSub());
-  type.register_type(e.participant);
-  Topic* out_topic = e.participant->create_topic(out, type.get_type_name(), TOPIC_QOS_DEFAULT);
-  Topic* in_topic = e.participant->create_topic(in, type.get_type_name(), TOPIC_QOS_DEFAULT);
-  DataWriterQos wq = DATAWRITER_QOS_DEFAULT;
-  wq.reliability().kind = RELIABLE_RELIABILITY_QOS;
-  wq.history().kind = KEEP_LAST_HISTORY_QOS;
-  wq.history().depth = 10;
-  DataReaderQos rq = DATAREADER_QOS_DEFAULT;
-  rq.reliability().kind = RELIABLE_RELIABILITY_QOS;
-  rq.history().kind = KEEP_LAST_HISTORY_QOS;
-  rq.history().depth = 10;
-  e.writer = e.participant->create_publisher(PUBLISHER_QOS_DEFAULT)->create_datawriter(out_topic, wq);
-  e.reader = e.participant->create_subscriber(SUBSCRIBER_QOS_DEFAULT)->create_datareader(in_topic, rq);
-  return e;
+// Writes every sample its reader takes to `writer`, on Fast DDS's receive thread (pong's echo,
+// the relay's forward). `writer` is handed over before the reader exists, so that it is never
+// called without one.
+template <class T>
+class Forward final : public DataReaderListener {
+ public:
+  DataWriter* writer = nullptr;
+
+  void on_data_available(DataReader* reader) override {
+    SampleInfo info;
+    while (reader->take_next_sample(&sample_, &info) == ReturnCode_t::RETCODE_OK) {
+      if (info.valid_data) writer->write(&sample_);
+    }
+  }
+
+ private:
+  T sample_;
+};
+
+bool data_sharing_off() {
+  const char* setting = std::getenv("POLYPORT_BENCH_FASTDDS_DATA_SHARING");
+  return setting != nullptr && std::string(setting) == "off";
 }
 
-void close(Endpoints& e) {
-  e.participant->delete_contained_entities();
-  DomainParticipantFactory::get_instance()->delete_participant(e.participant);
+template <class PubSub>
+DomainParticipant* make_participant(int domain) {
+  DomainParticipant* participant =
+      DomainParticipantFactory::get_instance()->create_participant(domain, PARTICIPANT_QOS_DEFAULT);
+  TypeSupport type(new PubSub());
+  type.register_type(participant);
+  return participant;
+}
+
+template <class PubSub>
+DataWriter* make_writer(DomainParticipant* participant, const char* topic) {
+  DataWriterQos qos = DATAWRITER_QOS_DEFAULT;
+  qos.reliability().kind = RELIABLE_RELIABILITY_QOS;
+  qos.history().kind = KEEP_LAST_HISTORY_QOS;
+  qos.history().depth = 10;
+  if (data_sharing_off()) qos.data_sharing().off();
+  Topic* t = participant->create_topic(topic, PubSub().getName(), TOPIC_QOS_DEFAULT);
+  return participant->create_publisher(PUBLISHER_QOS_DEFAULT)->create_datawriter(t, qos);
+}
+
+// `listener` (pong, relay): data-available only; it must outlive the reader.
+template <class PubSub>
+DataReader* make_reader(DomainParticipant* participant, const char* topic, DataReaderListener* listener = nullptr) {
+  DataReaderQos qos = DATAREADER_QOS_DEFAULT;
+  qos.reliability().kind = RELIABLE_RELIABILITY_QOS;
+  qos.history().kind = KEEP_LAST_HISTORY_QOS;
+  qos.history().depth = 10;
+  if (data_sharing_off()) qos.data_sharing().off();
+  Topic* t = participant->create_topic(topic, PubSub().getName(), TOPIC_QOS_DEFAULT);
+  return participant->create_subscriber(SUBSCRIBER_QOS_DEFAULT)
+      ->create_datareader(t, qos, listener, listener != nullptr ? StatusMask::data_available() : StatusMask::none());
+}
+
+void close(DomainParticipant* participant) {
+  participant->delete_contained_entities();
+  DomainParticipantFactory::get_instance()->delete_participant(participant);
+}
+
+void wait_for_stop() {
+  while (!g_stop) {
+    struct timespec hundred_ms{0, 100'000'000};
+    nanosleep(&hundred_ms, nullptr);
+  }
 }
 
 bool matched(const Endpoints& e) {
@@ -83,8 +133,11 @@ bool take_one(const Endpoints& e, T& sample, const eprosima::fastrtps::Duration_
 }
 
 template <class T, class PubSub>
-int ping(int domain, int rounds, int warmup, int size) {
-  Endpoints e = open<PubSub>(domain, "ping", "pong");
+int ping(int domain, int rounds, int warmup, int size, const char* samples) {
+  Endpoints e;
+  e.participant = make_participant<PubSub>(domain);
+  e.writer = make_writer<PubSub>(e.participant, "ping");
+  e.reader = make_reader<PubSub>(e.participant, "pong");
   const std::int64_t deadline = now_ns() + 30'000'000'000;
   while (!matched(e)) {
     if (g_stop || now_ns() > deadline) return 1;
@@ -94,7 +147,7 @@ int ping(int domain, int rounds, int warmup, int size) {
   T sample;
   T echo;
   const int rc = bench::run_ping(
-      "fastdds", size, rounds, warmup,
+      "fastdds", size, rounds, warmup, samples,
       [&](std::uint64_t seq) {
         sample.seq(seq);
         return e.writer->write(&sample);
@@ -105,18 +158,34 @@ int ping(int domain, int rounds, int warmup, int size) {
         }
         return false;
       });
-  close(e);
+  close(e.participant);
   return rc;
 }
 
 template <class T, class PubSub>
 int pong(int domain) {
-  Endpoints e = open<PubSub>(domain, "pong", "ping");
-  T sample;
-  while (!g_stop) {
-    if (take_one(e, sample, eprosima::fastrtps::Duration_t(0, 200'000'000))) e.writer->write(&sample);
-  }
-  close(e);
+  Forward<T> echo;
+  DomainParticipant* participant = make_participant<PubSub>(domain);
+  echo.writer = make_writer<PubSub>(participant, "pong");
+  make_reader<PubSub>(participant, "ping", &echo);
+  wait_for_stop();
+  close(participant);
+  return 0;
+}
+
+template <class T, class PubSub>
+int relay(int a, int b) {
+  Forward<T> ping_to_b;
+  Forward<T> pong_to_a;
+  DomainParticipant* on_a = make_participant<PubSub>(a);
+  DomainParticipant* on_b = make_participant<PubSub>(b);
+  ping_to_b.writer = make_writer<PubSub>(on_b, "ping");
+  pong_to_a.writer = make_writer<PubSub>(on_a, "pong");
+  make_reader<PubSub>(on_a, "ping", &ping_to_b);
+  make_reader<PubSub>(on_b, "pong", &pong_to_a);
+  wait_for_stop();
+  close(on_a);
+  close(on_b);
   return 0;
 }
 
@@ -124,24 +193,31 @@ int pong(int domain) {
 
 int main(int argc, char** argv) {
   bench::stop_on_signals();
-  if (argc < 4) {
-    std::fprintf(stderr, "usage: %s ping DOMAIN SIZE ROUNDS WARMUP | pong DOMAIN SIZE\n", argv[0]);
+  const std::string mode = argc > 1 ? argv[1] : "";
+  const auto int_at = [&](int i) { return argc > i ? std::atoi(argv[i]) : 0; };
+  const int size = mode == "relay" ? int_at(4) : int_at(3);
+  if (size != 16 && size != 1024) {
+    std::fprintf(stderr,
+                 "usage: %s ping DOMAIN SIZE ROUNDS WARMUP [SAMPLES] | pong DOMAIN SIZE | relay DOMAIN_A DOMAIN_B SIZE\n"
+                 "       SIZE: 16 or 1024\n",
+                 argv[0]);
     return 2;
   }
-  const std::string mode = argv[1];
-  const int domain = std::atoi(argv[2]);
-  const int size = std::atoi(argv[3]);
   const bool small = size == 16;
-  if (!small && size != 1024) return 2;
   if (mode == "ping" && argc >= 6) {
-    const int rounds = std::atoi(argv[4]);
-    const int warmup = std::atoi(argv[5]);
-    return small ? ping<bench::Ping16, bench::Ping16PubSubType>(domain, rounds, warmup, size)
-                 : ping<bench::Ping1k, bench::Ping1kPubSubType>(domain, rounds, warmup, size);
+    const int rounds = int_at(4);
+    const int warmup = int_at(5);
+    const char* samples = argc >= 7 ? argv[6] : nullptr;
+    return small ? ping<bench::Ping16, bench::Ping16PubSubType>(int_at(2), rounds, warmup, size, samples)
+                 : ping<bench::Ping1k, bench::Ping1kPubSubType>(int_at(2), rounds, warmup, size, samples);
   }
   if (mode == "pong") {
-    return small ? pong<bench::Ping16, bench::Ping16PubSubType>(domain)
-                 : pong<bench::Ping1k, bench::Ping1kPubSubType>(domain);
+    return small ? pong<bench::Ping16, bench::Ping16PubSubType>(int_at(2))
+                 : pong<bench::Ping1k, bench::Ping1kPubSubType>(int_at(2));
+  }
+  if (mode == "relay") {
+    return small ? relay<bench::Ping16, bench::Ping16PubSubType>(int_at(2), int_at(3))
+                 : relay<bench::Ping1k, bench::Ping1kPubSubType>(int_at(2), int_at(3));
   }
   return 2;
 }
