@@ -1,7 +1,9 @@
 // Building, starting and stopping the application graph, and its statistics. Control thread.
 #include "polyport/engine.hpp"
 
+#include <algorithm>
 #include <cstdio>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "polyport/component_api.hpp"
@@ -141,8 +143,11 @@ Result<void> Engine::start(std::vector<std::string>& warnings) {
   if (started_) return {};
   started_ = true;
   executors_.start_all(warnings);
-  for (Node& node : nodes_) {
+  start_order_.clear();
+  for (const std::size_t index : receivers_first()) {
+    Node& node = nodes_[index];
     Result<void> started = node.proxy.interceptor->start();
+    start_order_.push_back(index);
     if (!started) {
       stop();
       return make_error("component '" + node.name + "' did not start: " + started.error().message);
@@ -151,10 +156,50 @@ Result<void> Engine::start(std::vector<std::string>& warnings) {
   return {};
 }
 
+std::vector<std::size_t> Engine::receivers_first() const {
+  std::map<const Component*, std::size_t> index_of;
+  for (std::size_t i = 0; i < nodes_.size(); ++i) index_of[nodes_[i].proxy.adaptor.get()] = i;
+  // sends_to[i]: the nodes node i's data connections and calls go to (probes are not nodes).
+  std::vector<std::vector<std::size_t>> sends_to(nodes_.size());
+  for (const auto& connection : connections_) {
+    const auto source = index_of.find(&connection->source().owner());
+    const auto target = index_of.find(&connection->target().owner());
+    if (source == index_of.end() || target == index_of.end() || source->second == target->second) continue;
+    sends_to[source->second].push_back(target->second);
+  }
+  // A caller's calls go to its provider, which must be accepting them first.
+  for (const auto& [required, provided] : service_links_) {
+    const auto caller = index_of.find(&required->owner());
+    const auto provider = index_of.find(&provided->owner());
+    if (caller == index_of.end() || provider == index_of.end() || caller->second == provider->second) continue;
+    sends_to[caller->second].push_back(provider->second);
+  }
+  std::vector<bool> placed(nodes_.size(), false);
+  std::vector<std::size_t> order;
+  while (order.size() < nodes_.size()) {
+    bool progress = false;
+    for (std::size_t i = 0; i < nodes_.size(); ++i) {
+      if (placed[i]) continue;
+      const bool ready = std::all_of(sends_to[i].begin(), sends_to[i].end(), [&](std::size_t t) { return placed[t]; });
+      if (!ready) continue;
+      placed[i] = true;
+      order.push_back(i);
+      progress = true;
+    }
+    if (progress) continue;
+    // A cycle: the first remaining component in profile order goes next.
+    const auto first = static_cast<std::size_t>(std::find(placed.begin(), placed.end(), false) - placed.begin());
+    placed[first] = true;
+    order.push_back(first);
+  }
+  return order;
+}
+
 void Engine::stop() {
   if (!started_) return;
   started_ = false;
-  for (auto it = nodes_.rbegin(); it != nodes_.rend(); ++it) it->proxy.interceptor->stop();
+  for (auto it = start_order_.rbegin(); it != start_order_.rend(); ++it) nodes_[*it].proxy.interceptor->stop();
+  start_order_.clear();
   executors_.stop_all();
 }
 

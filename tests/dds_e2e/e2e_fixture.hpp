@@ -121,7 +121,7 @@ bool eventually(F&& condition, std::chrono::milliseconds limit = 30s) {
 }
 
 class DdsEndToEnd : public ::testing::Test {
- protected:
+ public:  // the scenarios (e2e_scenarios.hpp) drive a test through these
   void SetUp() override {
     if (std::string(CYCLONE_PEER).empty() || std::string(FASTDDS_PEER).empty()) {
       GTEST_SKIP() << "the test peers were not built: " << POLYPORT_PEERS_MISSING;

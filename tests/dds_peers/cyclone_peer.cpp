@@ -148,28 +148,32 @@ int call(dds_entity_t participant, const char* base, int count, int timeout_ms) 
     request.header.request_id.sequence_number = static_cast<std::uint64_t>(i);
     request.request.a = i;
     request.request.b = 0.5;
-    if (dds_write(writer, &request) != DDS_RETCODE_OK) return 1;
     bool got = false;
-    const auto deadline = Clock::now() + std::chrono::milliseconds(timeout_ms);
-    while (!got && Clock::now() < deadline) {
-      void* buffers[1] = {nullptr};
-      dds_sample_info_t info[1];
-      const dds_return_t n = dds_take(reader, buffers, info, 1, 1);
-      if (n <= 0) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(1));
-        continue;
+    int attempts = 0;
+    while (!got && attempts < kCallAttempts) {
+      ++attempts;
+      if (dds_write(writer, &request) != DDS_RETCODE_OK) return 1;
+      const auto deadline = Clock::now() + std::chrono::milliseconds(timeout_ms / kCallAttempts);
+      while (!got && Clock::now() < deadline) {
+        void* buffers[1] = {nullptr};
+        dds_sample_info_t info[1];
+        const dds_return_t n = dds_take(reader, buffers, info, 1, 1);
+        if (n <= 0) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(1));
+          continue;
+        }
+        const auto* reply = static_cast<const peer_Add_Reply*>(buffers[0]);
+        // Replies reach every client: keep ours.
+        if (info[0].valid_data && std::memcmp(reply->header.related_request_id.writer_guid, guid.v, 16) == 0 &&
+            reply->header.related_request_id.sequence_number == static_cast<std::uint64_t>(i)) {
+          reply_line(i, attempts, reply->header.status, reply->reply.sum);
+          got = true;
+          ++answered;
+        }
+        dds_return_loan(reader, buffers, n);
       }
-      const auto* reply = static_cast<const peer_Add_Reply*>(buffers[0]);
-      // Replies reach every client: keep ours.
-      if (info[0].valid_data && std::memcmp(reply->header.related_request_id.writer_guid, guid.v, 16) == 0 &&
-          reply->header.related_request_id.sequence_number == static_cast<std::uint64_t>(i)) {
-        reply_line(i, reply->header.status, reply->reply.sum);
-        got = true;
-        ++answered;
-      }
-      dds_return_loan(reader, buffers, n);
     }
-    if (!got) line(R"({"seq":)" + std::to_string(i) + R"(,"timeout":true})");
+    if (!got) line(R"({"seq":)" + std::to_string(i) + R"(,"attempts":)" + std::to_string(attempts) + R"(,"timeout":true})");
   }
   return answered == count ? 0 : 1;
 }

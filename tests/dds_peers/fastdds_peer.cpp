@@ -161,25 +161,29 @@ int call(Peer& peer, const std::string& base, int count, int timeout_ms) {
     request.header().request_id().sequence_number(static_cast<std::uint64_t>(i));
     request.request().a(i);
     request.request().b(0.5);
-    if (!writer->write(&request)) return 1;
     bool got = false;
-    const auto deadline = Clock::now() + std::chrono::milliseconds(timeout_ms);
-    while (!got && Clock::now() < deadline) {
-      peer::Add_Reply reply;
-      SampleInfo info;
-      if (reader->take_next_sample(&reply, &info) != ReturnCode_t::RETCODE_OK) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(1));
-        continue;
-      }
-      // Replies reach every client: keep ours.
-      if (info.valid_data && reply.header().related_request_id().writer_guid() == guid &&
-          reply.header().related_request_id().sequence_number() == static_cast<std::uint64_t>(i)) {
-        reply_line(i, reply.header().status(), reply.reply().sum());
-        got = true;
-        ++answered;
+    int attempts = 0;
+    while (!got && attempts < kCallAttempts) {
+      ++attempts;
+      if (!writer->write(&request)) return 1;
+      const auto deadline = Clock::now() + std::chrono::milliseconds(timeout_ms / kCallAttempts);
+      while (!got && Clock::now() < deadline) {
+        peer::Add_Reply reply;
+        SampleInfo info;
+        if (reader->take_next_sample(&reply, &info) != ReturnCode_t::RETCODE_OK) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(1));
+          continue;
+        }
+        // Replies reach every client: keep ours.
+        if (info.valid_data && reply.header().related_request_id().writer_guid() == guid &&
+            reply.header().related_request_id().sequence_number() == static_cast<std::uint64_t>(i)) {
+          reply_line(i, attempts, reply.header().status(), reply.reply().sum());
+          got = true;
+          ++answered;
+        }
       }
     }
-    if (!got) line(R"({"seq":)" + std::to_string(i) + R"(,"timeout":true})");
+    if (!got) line(R"({"seq":)" + std::to_string(i) + R"(,"attempts":)" + std::to_string(attempts) + R"(,"timeout":true})");
   }
   return answered == count ? 0 : 1;
 }

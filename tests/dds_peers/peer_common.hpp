@@ -55,10 +55,16 @@ inline void pose_line(std::int32_t id, double x, float heading, bool valid, cons
   line(text);
 }
 
-// A reply as printed by `call`.
-inline void reply_line(int sequence, std::int32_t status, double sum) {
+// `call` sends a request again when its reply does not come within a share of the timeout:
+// a client's reader sees a server's writer a moment before that writer sees the reader, and
+// a reply written in between is not for it (volatile topics keep nothing for late readers).
+inline constexpr int kCallAttempts = 5;
+
+// A reply as printed by `call`, with the number of requests it took.
+inline void reply_line(int sequence, int attempts, std::int32_t status, double sum) {
   char text[256];
-  std::snprintf(text, sizeof text, R"({"seq":%d,"status":%d,"sum":%.17g})", sequence, status, sum);
+  std::snprintf(text, sizeof text, R"({"seq":%d,"attempts":%d,"status":%d,"sum":%.17g})", sequence, attempts, status,
+                sum);
   line(text);
 }
 

@@ -29,7 +29,11 @@ class Engine {
 
   // Creates every proxy and connection. Reports all problems; false if there was any.
   bool build(const ApplicationProfile& profile, Diagnostics& diagnostics);
-  // Starts execution contexts, then initializes and activates components in profile order.
+  // Starts execution contexts, then initializes and activates components, receivers before
+  // senders: a component starts once every component its data and calls go to has started
+  // (profile order among the rest, e.g. within a cycle), so that a foreign model's writer
+  // exists before the first sample is forwarded to it and a provider accepts calls before its
+  // callers start. Stopping goes the other way round.
   // Warnings (e.g. real-time priority refused) are returned for the caller to log.
   Result<void> start(std::vector<std::string>& warnings);
   // Deactivates and finalizes components in reverse order, then stops the contexts.
@@ -65,6 +69,8 @@ class Engine {
     Proxy proxy;
   };
 
+  // Node indexes in start order (see start()).
+  std::vector<std::size_t> receivers_first() const;
   Result<Connection*> connect_ports(Port& source, Port& target, std::optional<QueuePolicy> policy,
                                     std::optional<std::uint32_t> depth,
                                     std::shared_ptr<const MappingProgram> mapping = nullptr);
@@ -79,6 +85,7 @@ class Engine {
   std::string name_;
   std::unique_ptr<Component> probes_;
   bool started_ = false;
+  std::vector<std::size_t> start_order_;  // indexes into nodes_, in the order started
 };
 
 }  // namespace polyport
