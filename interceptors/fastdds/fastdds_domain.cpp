@@ -54,8 +54,8 @@ class FastddsDomain final : public dds::Domain {
   }
 
  private:
-  // Callbacks of one reader do not overlap: RawReader takes its samples under its take
-  // mutex (Fast DDS may call the listener from its receive thread and, for writers in this
+  // Callbacks of one reader do not overlap: RawReader takes its samples through a DrainGate
+  // (Fast DDS may call the listener from its receive thread and, for writers in this
   // process, from the writing thread).
   class CountedReader final : public dds::Reader {
    public:

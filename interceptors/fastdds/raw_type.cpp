@@ -13,11 +13,13 @@
 //    participant's receive thread for samples from the network or shared memory, but the
 //    *writing thread itself* for a writer in the same process (Fast DDS 2.9 intra-process
 //    delivery runs the whole chain inside DataWriter::write()). So two threads can deliver to
-//    one reader at once; take_mutex_ keeps the single storage block to one of them. It is
-//    uncontended unless a local and a remote writer publish at the same instant.
+//    one reader at once; a DrainGate (polyport/drain_gate.hpp) keeps the single storage block
+//    to one of them without a lock: a thread that finds another taking leaves its samples
+//    to that one, which takes again before it returns.
 //  - The callback must not write to a DataWriter whose reader is in this process on the same
-//    topic chain back to itself: intra-process delivery would recurse (baselines.md §3.4 saw
-//    a deadlock in SendBuffersManager::get_buffer doing that).
+//    topic chain back to itself: intra-process delivery would recurse into Fast DDS
+//    (baselines.md §3.4 saw a deadlock in SendBuffersManager::get_buffer doing that). The
+//    gate itself does not recurse: a nested notification returns at once.
 //  - ~RawReader() waits for a callback in progress to finish, so the callback never runs on a
 //    destroyed reader.
 #include "raw_type.hpp"
@@ -458,22 +460,23 @@ RawReader::~RawReader() {
 void RawReader::on_data_available(dds::DataReader* reader) noexcept {
   in_flight_.fetch_add(1);
   if (!stopping_.load()) {
-    std::lock_guard lock(take_mutex_);
-    RawSample sample{nullptr, 0, storage_.get(), capacity_};
-    dds::SampleInfo info;
-    try {
-      while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
-        if (!info.valid_data) continue;  // a dispose or unregister: nothing to forward
-        // The source timestamp is the writer's wall clock; polyport's path time is
-        // CLOCK_MONOTONIC, so carry the sample's age over: mono_now - (wall_now - source).
-        // Accurate to the two clocks' skew between peers (zero on one host).
-        const std::int64_t age_ns = wall_now().ns - info.source_timestamp.to_ns();
-        callback_(sample.data, sample.size, MonoTime{mono_now().ns - age_ns});
+    drains_.run([this, reader]() noexcept {
+      RawSample sample{nullptr, 0, storage_.get(), capacity_};
+      dds::SampleInfo info;
+      try {
+        while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+          if (!info.valid_data) continue;  // a dispose or unregister: nothing to forward
+          // The source timestamp is the writer's wall clock; polyport's path time is
+          // CLOCK_MONOTONIC, so carry the sample's age over: mono_now - (wall_now - source).
+          // Accurate to the two clocks' skew between peers (zero on one host).
+          const std::int64_t age_ns = wall_now().ns - info.source_timestamp.to_ns();
+          callback_(sample.data, sample.size, MonoTime{mono_now().ns - age_ns});
+        }
+      } catch (...) {
+        // The callback or the SDK threw: drop the rest of this batch rather than unwind
+        // through Fast DDS's listener thread; the next notification takes what is left.
       }
-    } catch (...) {
-      // The callback or the SDK threw: drop the rest of this batch rather than unwind
-      // through Fast DDS's listener thread; the next notification takes what is left.
-    }
+    });
   }
   in_flight_.fetch_sub(1);
 }

@@ -23,6 +23,7 @@
 #include <fastdds/dds/topic/TopicDataType.hpp>
 
 #include "polyport/clock.hpp"
+#include "polyport/drain_gate.hpp"
 #include "polyport/profile.hpp"
 #include "polyport/result.hpp"
 #include "polyport/status.hpp"
@@ -212,7 +213,7 @@ class RawReader {
   Callback callback_;
   std::unique_ptr<std::byte[]> storage_;
   std::uint32_t capacity_ = 0;
-  std::mutex take_mutex_;  // see raw_type.cpp: more than one Fast DDS thread may deliver
+  DrainGate drains_;  // see raw_type.cpp: more than one Fast DDS thread may deliver
   std::atomic<bool> stopping_{false};
   std::atomic<int> in_flight_{0};
 };
