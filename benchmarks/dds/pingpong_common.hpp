@@ -8,9 +8,12 @@
 #include <csignal>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <string>
 #include <vector>
+
+#include <sys/types.h>
 
 namespace bench {
 
@@ -39,17 +42,72 @@ inline std::string summary(std::vector<std::int64_t> v) {
   return text;
 }
 
+// CPU time spent during the measured round trips, by this process and by the processes whose
+// ids POLYPORT_BENCH_CPU_PIDS lists ("pid,pid": the runner names the pong and, via a bridge,
+// polyportd or the relay). Read from the processes' CPU-time clocks once before the first
+// measured round trip and once after the last, never inside one. Where every process shares
+// one core, their sum per round trip is what the round trip can at best cost: it tells
+// which process a slower path spends its time in.
+class CpuClocks {
+ public:
+  CpuClocks() {
+    clocks_.push_back(CLOCK_PROCESS_CPUTIME_ID);
+    const char* pids = std::getenv("POLYPORT_BENCH_CPU_PIDS");
+    for (const char* at = pids; at != nullptr && *at != '\0';) {
+      char* end = nullptr;
+      const long pid = std::strtol(at, &end, 10);
+      if (end == at) break;
+      clockid_t clock{};
+      clocks_.push_back(clock_getcpuclockid(static_cast<pid_t>(pid), &clock) == 0 ? clock : kNone);
+      at = *end == ',' ? end + 1 : end;
+    }
+    start_.assign(clocks_.size(), -1);
+    spent_.assign(clocks_.size(), -1);
+  }
+  void start() { read(start_); }
+  void stop() {
+    std::vector<std::int64_t> now(clocks_.size(), -1);
+    read(now);
+    for (std::size_t i = 0; i < now.size(); ++i) {
+      spent_[i] = now[i] >= 0 && start_[i] >= 0 ? now[i] - start_[i] : -1;
+    }
+  }
+  // "[self,pid...]" in nanoseconds; -1 where a clock could not be read.
+  std::string json() const {
+    std::string out = "[";
+    for (std::size_t i = 0; i < spent_.size(); ++i) out += (i ? "," : "") + std::to_string(spent_[i]);
+    return out + "]";
+  }
+
+ private:
+  static constexpr clockid_t kNone = -1;
+  void read(std::vector<std::int64_t>& into) const {
+    for (std::size_t i = 0; i < clocks_.size(); ++i) {
+      timespec ts{};
+      into[i] = clocks_[i] != kNone && clock_gettime(clocks_[i], &ts) == 0
+                    ? static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec
+                    : -1;
+    }
+  }
+  std::vector<clockid_t> clocks_;
+  std::vector<std::int64_t> start_;
+  std::vector<std::int64_t> spent_;
+};
+
 // One line on stdout: round trips, one-way (= round trip / 2) and the SDK's write call in the
-// ping process, in nanoseconds. The write is there to compare with polyport's sink time, the
-// same SDK's write (of bytes already serialized) on polyport's side of a hop.
+// ping process, in nanoseconds, and the CPU time of the measured round trips (CpuClocks). The
+// write is there to compare with polyport's sink time, the same SDK's write (of bytes already
+// serialized) on polyport's side of a hop.
 inline void report(const char* vendor, int size, int warmup, const std::vector<std::int64_t>& rtt,
-                   const std::vector<std::int64_t>& write_ns, int lost) {
+                   const std::vector<std::int64_t>& write_ns, int lost, const CpuClocks& cpu) {
   std::vector<std::int64_t> one_way;
   one_way.reserve(rtt.size());
   for (std::int64_t r : rtt) one_way.push_back(r / 2);
-  std::printf(R"({"vendor":"%s","size":%d,"warmup":%d,"lost":%d,"rtt_ns":%s,"one_way_ns":%s,"write_ns":%s})"
+  std::printf(R"({"vendor":"%s","size":%d,"warmup":%d,"lost":%d,"rtt_ns":%s,"one_way_ns":%s,"write_ns":%s,)"
+              R"("cpu_ns":%s})"
               "\n",
-              vendor, size, warmup, lost, summary(rtt).c_str(), summary(one_way).c_str(), summary(write_ns).c_str());
+              vendor, size, warmup, lost, summary(rtt).c_str(), summary(one_way).c_str(), summary(write_ns).c_str(),
+              cpu.json().c_str());
   std::fflush(stdout);
 }
 
@@ -77,7 +135,9 @@ int run_ping(const char* vendor, int size, int rounds, int warmup, const char* s
   rtt.reserve(static_cast<std::size_t>(rounds));
   write_time.reserve(static_cast<std::size_t>(rounds));
   int lost = 0;
+  CpuClocks cpu;
   for (int i = 0; i < warmup + rounds && !g_stop; ++i) {
+    if (i == warmup) cpu.start();
     const auto seq = static_cast<std::uint64_t>(i);
     const std::int64_t t0 = now_ns();
     if (!write(seq)) return 1;
@@ -93,7 +153,8 @@ int run_ping(const char* vendor, int size, int rounds, int warmup, const char* s
       write_time.push_back(t_written - t0);
     }
   }
-  report(vendor, size, warmup, rtt, write_time, lost);
+  cpu.stop();
+  report(vendor, size, warmup, rtt, write_time, lost, cpu);
   if (samples_path != nullptr && !write_samples(samples_path, rtt, write_time)) return 1;
   return 0;
 }

@@ -199,6 +199,10 @@ struct Series {
   std::vector<std::int64_t> chunk_p50_one_way;
   int lost = 0;
   std::string error;
+  // CPU time of the measured round trips, per process of the path (cpu_roles: "ping", then
+  // the processes run_chunk watched), summed over chunks; -1 once any chunk could not read it.
+  std::vector<std::string> cpu_roles;
+  std::vector<std::int64_t> cpu_ns;
 
   Json to_json(int chunks) const {
     Json j{{"chunks", chunks}, {"lost", lost}};
@@ -211,6 +215,18 @@ struct Series {
     j["one_way_p50_per_chunk_ns"] = chunk_p50_one_way;
     j["ping_write_ns"] = summary(write);
     j["ping_write_ns"].erase("histogram");
+    Json cpu = Json::object();
+    std::int64_t all = 0;
+    for (std::size_t i = 0; i < cpu_roles.size() && i < cpu_ns.size(); ++i) {
+      if (cpu_ns[i] < 0 || all < 0) {
+        all = -1;
+        continue;
+      }
+      cpu[cpu_roles[i]] = cpu_ns[i] / static_cast<std::int64_t>(rtt.size());
+      all += cpu_ns[i];
+    }
+    if (all >= 0 && !cpu.empty()) cpu["all"] = all / static_cast<std::int64_t>(rtt.size());
+    j["cpu_per_round_trip_ns"] = cpu;
     return j;
   }
 };
@@ -274,12 +290,21 @@ struct Settings {
 
 std::string program_of(const std::string& vendor) { return vendor == "cyclonedds" ? PINGPONG_CYCLONE : PINGPONG_FASTDDS; }
 
-// One ping process of `rounds` round trips on `domain`; its samples are appended to `series`.
+// One ping process of `rounds` round trips on `domain`; its samples are appended to `series`,
+// and the CPU time it and the `watched` processes spent on them (roles: their names).
+struct Watched {
+  std::string role;
+  pid_t pid;
+};
+
 void run_chunk(const std::string& vendor, int domain, int size, int rounds, int warmup, const Placement& placement,
-               const fs::path& dir, const std::string& tag, Series& series) {
+               const fs::path& dir, const std::string& tag, const std::vector<Watched>& watched, Series& series) {
   if (!series.error.empty()) return;
   const fs::path samples = dir / (tag + ".samples");
   const fs::path out = dir / (tag + ".out");
+  std::string pids;
+  for (const Watched& w : watched) pids += (pids.empty() ? "" : ",") + std::to_string(w.pid);
+  setenv("POLYPORT_BENCH_CPU_PIDS", pids.c_str(), 1);  // read by the ping (pingpong_common.hpp)
   const pid_t ping = spawn({program_of(vendor), "ping", std::to_string(domain), std::to_string(size),
                             std::to_string(rounds), std::to_string(warmup), samples.string()},
                            out, placement);
@@ -296,6 +321,16 @@ void run_chunk(const std::string& vendor, int domain, int size, int rounds, int 
   }
   series.lost += line.value("lost", 0);
   series.chunk_p50_one_way.push_back(line["one_way_ns"].value("p50", std::int64_t{0}));
+  if (series.cpu_roles.empty()) {
+    series.cpu_roles.push_back("ping");
+    for (const Watched& w : watched) series.cpu_roles.push_back(w.role);
+    series.cpu_ns.assign(series.cpu_roles.size(), 0);
+  }
+  const Json cpu = line.value("cpu_ns", Json::array());
+  for (std::size_t i = 0; i < series.cpu_ns.size(); ++i) {
+    const std::int64_t spent = i < cpu.size() && cpu[i].is_number_integer() ? cpu[i].get<std::int64_t>() : -1;
+    series.cpu_ns[i] = spent < 0 || series.cpu_ns[i] < 0 ? -1 : series.cpu_ns[i] + spent;
+  }
   std::ifstream in(samples);
   for (std::int64_t rtt = 0, write = 0; in >> rtt >> write;) {
     series.rtt.push_back(rtt);
@@ -342,16 +377,19 @@ Json run_case(const Settings& s, const Placement& placement, const std::string& 
   struct Kind {
     const char* tag;
     int ping_domain;
+    std::vector<Watched> watched;
     Series series;
   };
-  Kind kinds[3] = {{"direct", direct_domain, {}}, {"via", a, {}}, {"relay", relay_a, {}}};
+  Kind kinds[3] = {{"direct", direct_domain, {{"pong", direct_pong}}, {}},
+                   {"via", a, {{"polyportd", daemon}, {"pong", via_pong}}, {}},
+                   {"relay", relay_a, {{"relay", relay}, {"pong", relay_pong}}, {}}};
   const int per_chunk = (s.rounds + s.chunks - 1) / s.chunks;
   for (int k = 0; k < s.chunks && !interrupted(); ++k) {
     // Taking turns at going first keeps any warming of the machine off one of the series.
     for (int j = 0; j < 3 && !interrupted(); ++j) {
       Kind& kind = kinds[(k + j) % 3];
       run_chunk(vendor, kind.ping_domain, size, per_chunk, s.warmup, placement, dir,
-                std::string(kind.tag) + "-" + std::to_string(k), kind.series);
+                std::string(kind.tag) + "-" + std::to_string(k), kind.watched, kind.series);
     }
   }
   const Series& direct = kinds[0].series;
@@ -508,15 +546,19 @@ void print_line(const Json& c) {
   for (const Json& p : c.value("polyport", Json::array())) {
     own += " " + std::to_string(p["in_to_out_ns"].value("p50", 0)) + "/" + std::to_string(p["in_to_out_ns"].value("p99", 0));
   }
+  const auto cpu = [&](const char* series) {
+    return ns_to_us(c[series].value("cpu_per_round_trip_ns", Json::object()).value("all", Json()));
+  };
   std::fprintf(stderr,
                "%-9s %-10s %5d B  direct %6s/%6s  via polyport %6s/%6s  via relay %6s/%6s us  bound %6s %-4s  "
-               "in-to-out p50/p99 ns:%s %s\n",
+               "in-to-out p50/p99 ns:%s %s  cpu per round trip us: %s %s %s\n",
                c["placement"].get<std::string>().c_str(), c["vendor"].get<std::string>().c_str(), c["size_bytes"].get<int>(),
                ns_to_us(p50("direct")).c_str(), ns_to_us(p99("direct")).c_str(), ns_to_us(p50("via_polyport")).c_str(),
                ns_to_us(p99("via_polyport")).c_str(), ns_to_us(p50("via_native_relay")).c_str(),
                ns_to_us(p99("via_native_relay")).c_str(), ns_to_us(t.value("bound_2x_direct_plus_2us_ns", Json())).c_str(),
                t.empty() ? "n/a" : (t["via_within_bound"].get<bool>() ? "ok" : "MISS"), own.c_str(),
-               t.empty() ? "" : (t["in_to_out_p99_within_1us"].get<bool>() ? "ok" : "MISS"));
+               t.empty() ? "" : (t["in_to_out_p99_within_1us"].get<bool>() ? "ok" : "MISS"), cpu("direct").c_str(),
+               cpu("via_polyport").c_str(), cpu("via_native_relay").c_str());
 }
 
 }  // namespace
@@ -574,6 +616,11 @@ int main(int argc, char** argv) {
                             {"transports", "config/cyclonedds-loopback.xml, config/fastdds-loopback.xml"},
                             {"polyport_histograms", "every sample polyportd forwarded in the case, warm-ups included"},
                             {"native_relay", "the vendor's relay program in polyportd's place: same hops, no polyport"},
+                            {"cpu_per_round_trip_ns",
+                             "CPU time per measured round trip of each process of the path (ping, polyportd or "
+                             "relay, pong; all = their sum), from their CPU-time clocks read by the ping before "
+                             "and after its measured round trips; on one core a round trip cannot cost less than "
+                             "'all'"},
                             {"targets", "via one-way p50 <= 2 x direct one-way p50 + 2 us; "
                                         "polyport in-to-out p99 <= 1 us (worse of the two connections)"}}},
               {"cases", Json::array()}};
