@@ -7,9 +7,9 @@
 // keep-last 10, volatile.
 // Transports: Fast DDS's default participant profile (the runner points
 // FASTRTPS_DEFAULT_PROFILES_FILE at config/fastdds-loopback.xml). Data sharing: Fast DDS's
-// default (AUTO: the generated types are plain and bounded, so two of these programs share
+// default (AUTO: the generated types are bounded and keyless, so two of these programs share
 // their samples in memory); POLYPORT_BENCH_FASTDDS_DATA_SHARING=off turns it off, which is
-// what a hop to or from polyport gets (its raw byte type is not plain).
+// what a hop to or from polyport gets (its raw endpoints switch it off, raw_type.hpp).
 #include <atomic>
 #include <csignal>
 #include <cstdlib>

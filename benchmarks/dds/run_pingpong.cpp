@@ -27,7 +27,7 @@
 //     --fastdds-data-sharing auto|off
 //                        Fast DDS data sharing between the ping and pong programs (default
 //                        auto, Fast DDS's default; polyport's side of a hop never has it, its
-//                        raw byte type not being plain): off shows what a direct hop costs
+//                        raw endpoints switch it off): off shows what a direct hop costs
 //                        without it
 //     --keep DIR         keep the generated profiles, raw samples, logs and polyport's
 //                        statistics in DIR (default: a temporary directory, removed)

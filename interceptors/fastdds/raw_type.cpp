@@ -310,7 +310,7 @@ void apply(const DdsQos& in, EndpointQos& out) {
     const std::int64_t lease = std::max<std::int64_t>(*in.lease_ns, 3);
     out.liveliness().announcement_period = duration(lease / 3);
   }
-  // Data sharing needs a plain type; say so instead of relying on AUTO's silent fallback.
+  // Data sharing: off, explicitly (raw_type.hpp says why) rather than by AUTO's silent fallback.
   out.data_sharing().off();
 }
 

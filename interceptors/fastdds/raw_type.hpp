@@ -104,8 +104,12 @@ class RawType final : public eprosima::fastdds::dds::TopicDataType {
 //    profile of the file FASTRTPS_DEFAULT_PROFILES_FILE names (or DEFAULT_FASTRTPS_PROFILES.xml
 //    in the working directory), which Fast DDS loads by itself, else its built-in transports
 //    (SHM + UDPv4 on every interface: not restricted to this host). `name` is not used.
-// Data sharing (zero copy) is switched off on every raw endpoint regardless: it needs a
-// plain (fixed-size) type, and a raw payload is not one.
+// Data sharing is switched off on every raw endpoint. Fast DDS 2.9 shares samples in memory
+// only for keyless types that declare themselves bounded (TopicDataType::is_bounded) with a
+// preallocated history, each pool slot then being the type's maximum size; RawType declares
+// no bound. A bounded IDL type could declare one (max_size is known), which would let polyport
+// share memory with generated applications: not done, and on this VM data sharing did not make
+// a direct hop faster (README, Benchmarks).
 enum class Transport : std::uint8_t { udp_loopback, shm, shm_and_udp_loopback, fastdds_defaults };
 
 struct ParticipantOptions {
