@@ -154,6 +154,15 @@ void print_final_stats(const nlohmann::json& stats) {
   for (const auto& c : stats["components"]) {
     spdlog::info("  component {} ({}): state {}, {} executions, {} errors", c.value("name", ""), c.value("model", ""),
                  c.value("state", ""), c.value("executions", 0), c.value("errors", 0));
+    if (!c.contains("dds")) continue;
+    for (const auto& t : c["dds"].value("topics", nlohmann::json::array())) {
+      if (t.value("polyport", "") == "reads") {
+        spdlog::info("    DDS topic {}: {} received, {} refused", t.value("topic", ""), t.value("received", 0),
+                     t.value("refused", 0));
+      } else if (t.contains("matched_readers")) {
+        spdlog::info("    DDS topic {}: {} readers matched", t.value("topic", ""), t.value("matched_readers", 0));
+      }
+    }
   }
   for (const auto& c : stats["connections"]) {
     spdlog::info("  {}: received {}, delivered {}, dropped {}; latency {}", c.value("name", ""), c.value("received", 0),

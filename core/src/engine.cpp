@@ -285,11 +285,15 @@ void Engine::stats(nlohmann::json& out) const {
   out["components"] = nlohmann::json::array();
   for (const Node& node : nodes_) {
     const InterceptorStatus status = node.proxy.interceptor->status();
-    out["components"].push_back({{"name", node.name},
-                                 {"model", node.model},
-                                 {"state", status.state},
-                                 {"executions", status.executions},
-                                 {"errors", status.errors}});
+    nlohmann::json component{{"name", node.name},
+                             {"model", node.model},
+                             {"state", status.state},
+                             {"executions", status.executions},
+                             {"errors", status.errors}};
+    // The model's own part (e.g. a DDS component's topics: matched peers, samples received
+    // and refused; its services' counters), as `check` shows it, read now.
+    node.proxy.interceptor->describe(component);
+    out["components"].push_back(std::move(component));
   }
   out["connections"] = nlohmann::json::array();
   for (const auto& c : connections_) {

@@ -13,7 +13,7 @@ Status DdsInterceptor::TopicSink::on_sample(const std::byte* data, const SampleM
 }
 
 DdsInterceptor::DdsInterceptor(DdsAdaptor& adaptor, std::shared_ptr<Domain> domain, std::string config)
-    : adaptor_(adaptor), domain_(std::move(domain)), config_(std::move(config)) {
+    : adaptor_(adaptor), domain_(std::move(domain)), config_(std::move(config)), closed_(adaptor.topics().size()) {
   for (const DdsAdaptor::Topic& topic : adaptor_.topics()) {
     if (topic.in != nullptr) {
       sinks_.push_back(std::make_unique<TopicSink>());
@@ -76,7 +76,12 @@ Result<void> DdsInterceptor::start() {
 void DdsInterceptor::stop() noexcept {
   for (auto& client : clients_) client->stop();
   for (auto& server : servers_) server->stop();
-  for (auto& reader : readers_) reader.reset();
+  for (std::size_t i = 0; i < readers_.size(); ++i) {
+    if (!readers_[i]) continue;
+    closed_[i].received += readers_[i]->received();
+    closed_[i].refused += readers_[i]->refused();
+    readers_[i].reset();
+  }
   for (std::size_t i = 0; i < writers_.size(); ++i) {
     if (sinks_[i]) sinks_[i]->writer.store(nullptr, std::memory_order_release);
     if (writers_[i]) retired_.push_back(std::move(writers_[i]));
@@ -116,10 +121,12 @@ void DdsInterceptor::describe(nlohmann::json& out) const {
                      {"topic", topic.topic},
                      {"type", topic.type_name},
                      {"polyport", topic.out ? "reads" : "writes"}};
-    if (i < readers_.size() && readers_[i]) {
-      t["matched_writers"] = readers_[i]->matched_writers();
-      t["received"] = readers_[i]->received();
-      t["refused"] = readers_[i]->refused();
+    if (topic.out != nullptr) {
+      const bool open = i < readers_.size() && readers_[i];
+      // Matched writers only while the reader exists; the counts over every reader so far.
+      if (open) t["matched_writers"] = readers_[i]->matched_writers();
+      t["received"] = closed_[i].received + (open ? readers_[i]->received() : 0);
+      t["refused"] = closed_[i].refused + (open ? readers_[i]->refused() : 0);
     }
     if (i < writers_.size() && writers_[i]) t["matched_readers"] = writers_[i]->matched_readers();
     topics.push_back(std::move(t));

@@ -55,6 +55,13 @@ class DdsInterceptor final : public Interceptor {
   std::vector<std::unique_ptr<Reader>> readers_;   // one per topic while started
   std::vector<std::unique_ptr<Writer>> writers_;   // one per topic while started
   std::vector<std::unique_ptr<Writer>> retired_;   // detached by stop
+  // Samples received / refused by the readers stop() has closed, per topic, so that the
+  // counts survive a restart and the final statistics (taken after stop) still have them.
+  struct ReaderTotals {
+    std::uint64_t received = 0;
+    std::uint64_t refused = 0;
+  };
+  std::vector<ReaderTotals> closed_;
   std::vector<std::unique_ptr<ServiceServer>> servers_;  // provided service ports
   std::vector<std::unique_ptr<ServiceClient>> clients_;  // required service ports
   bool active_ = false;

@@ -418,6 +418,7 @@ Result<std::unique_ptr<RawReader>> RawReader::create(Participant& participant,
   reader->capacity_ = max_size;
   try {
     reader->type_ = dynamic_cast<const RawType*>(participant.native()->find_type(type_name).get());
+    if (reader->type_ != nullptr) reader->refused_before_ = reader->type_->refused();
     reader->storage_ = std::make_unique<std::byte[]>(max_size);
     reader->listener_ = std::make_unique<Listener>(*reader);
     dds::SubscriberQos subscriber_qos = dds::SUBSCRIBER_QOS_DEFAULT;

@@ -200,9 +200,10 @@ class RawReader {
   RawReader& operator=(const RawReader&) = delete;
 
   std::int32_t matched_writers() const noexcept;
-  // Samples dropped because they did not fit max_size (or had no header). Counted by the
-  // participant's RawType, so shared by every raw reader of that type on the participant.
-  std::uint64_t refused() const noexcept { return type_ != nullptr ? type_->refused() : 0; }
+  // Samples dropped because they did not fit max_size (or had no header) since this reader
+  // was made. Counted by the participant's RawType, so shared by every raw reader of that
+  // type on the participant that exists at the same time.
+  std::uint64_t refused() const noexcept { return type_ != nullptr ? type_->refused() - refused_before_ : 0; }
 
  private:
   class Listener;
@@ -213,6 +214,7 @@ class RawReader {
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
   eprosima::fastdds::dds::DataReader* reader_ = nullptr;
   const RawType* type_ = nullptr;  // owned by the participant's type registry
+  std::uint64_t refused_before_ = 0;  // the type's count when this reader was made
   std::unique_ptr<Listener> listener_;
   Callback callback_;
   std::unique_ptr<std::byte[]> storage_;

@@ -99,6 +99,23 @@ TEST_F(CycloneEngineTest, BridgesTwoDomainsAsPassthrough) {
     EXPECT_EQ(got->samples._buffer[2], 3.75);
     EXPECT_EQ(got->last, 0xab);
     dds_return_loan(reader, buffers, taken);
+
+    // The statistics carry the DDS component's own counters: what polyport's reader on the
+    // left took from the generated writer (counted once the forward has returned, so read
+    // until it shows), and the writer it matched, which is still there.
+    const auto left_topic = [&] {
+      nlohmann::json live;
+      engine.stats(live);
+      for (const auto& c : live["components"]) {
+        if (c["name"] == "left" && c.contains("dds")) return c["dds"]["topics"][0];
+      }
+      return nlohmann::json::object();
+    };
+    EXPECT_TRUE(eventually([&] { return left_topic().value("received", 0) == 1; })) << left_topic().dump(2);
+    const nlohmann::json topic = left_topic();
+    EXPECT_EQ(topic["polyport"], "reads") << topic.dump(2);
+    EXPECT_EQ(topic["refused"], 0) << topic.dump(2);
+    EXPECT_EQ(topic["matched_writers"], 1) << topic.dump(2);
   }
 
   nlohmann::json stats;

@@ -223,6 +223,21 @@ inline const Json* connection(const Json& stats, const std::string& name) {
   return nullptr;
 }
 
+// The DDS topic polyport reads for a connection's source port ("component.port"), as the
+// component's entry in the statistics has it.
+inline const Json* source_topic(const Json& stats, const Json& link) {
+  const std::string source = link["source"];
+  const auto dot = source.find('.');
+  for (const Json& c : stats["components"]) {
+    if (c["name"] != source.substr(0, dot) || !c.contains("dds")) continue;
+    for (const Json& topic : c["dds"]["topics"]) {
+      if (topic["port"] == source.substr(dot + 1) && topic["polyport"] == "reads") return &topic;
+    }
+  }
+  ADD_FAILURE() << "no DDS topic read for " << source << " in " << stats.dump(2);
+  return nullptr;
+}
+
 // Publishers below run until stopped: a subscriber's reader matches polyport's writer (the
 // subscriber sees it) a moment before polyport's writer matches the reader, and samples
 // written in between are not for it (volatile topics). So a test waits for enough samples,
