@@ -18,6 +18,8 @@
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <pugixml.hpp>
 
+#include "sdk_log.hpp"
+
 namespace polyport::fastdds {
 
 namespace {
@@ -98,6 +100,7 @@ unsigned g_attempts = 0;  // numbers the prefixes; guarded by g_mutex
 }  // namespace
 
 Result<dds::DomainParticipantQos> participant_qos_from_file(const std::string& file) {
+  route_sdk_log();
   std::error_code ec;
   std::string path = std::filesystem::weakly_canonical(file, ec).string();
   if (ec) path = file;
@@ -130,6 +133,7 @@ Result<dds::DomainParticipantQos> participant_qos_from_file(const std::string& f
       doc.save(out, "", pugi::format_raw);
       const std::string renamed = out.str();
       if (factory->load_XML_profiles_string(renamed.c_str(), renamed.size()) != ReturnCode_t::RETCODE_OK) {
+        flush_sdk_log();
         return make_error("fastdds: Fast DDS refused the XML profiles file '" + file + "' (Fast DDS logs why)");
       }
       found = g_loaded.emplace(std::make_pair(path, std::move(text)), profile).first;
@@ -138,6 +142,7 @@ Result<dds::DomainParticipantQos> participant_qos_from_file(const std::string& f
     if (factory->get_participant_qos_from_profile(found->second, qos) != ReturnCode_t::RETCODE_OK) {
       // Fast DDS 2.9 can report success for a document while dropping one of its profiles
       // (seen with a profile name already in use); the profile is missing then.
+      flush_sdk_log();
       return make_error("fastdds: Fast DDS refused the participant profile in '" + file +
                         "' (Fast DDS logs why)");
     }

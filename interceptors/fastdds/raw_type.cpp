@@ -50,6 +50,7 @@
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 
 #include "participant_profile.hpp"
+#include "sdk_log.hpp"
 
 namespace polyport::fastdds {
 
@@ -156,6 +157,7 @@ bool RawType::getKey(void*, eprosima::fastrtps::rtps::InstanceHandle_t* handle, 
 // ---- Participant --------------------------------------------------------------------------
 
 Result<std::unique_ptr<Participant>> Participant::create(const ParticipantOptions& options) {
+  route_sdk_log();
   try {
     auto* factory = dds::DomainParticipantFactory::get_instance();
     dds::DomainParticipantQos qos = dds::PARTICIPANT_QOS_DEFAULT;
@@ -186,6 +188,7 @@ Result<std::unique_ptr<Participant>> Participant::create(const ParticipantOption
     dds::DomainParticipant* native =
         factory->create_participant(static_cast<dds::DomainId_t>(options.domain_id), *chosen);
     if (native == nullptr) {
+      flush_sdk_log();
       return make_error("fastdds: cannot create a participant on domain " +
                         std::to_string(options.domain_id) +
                         (options.profiles_file.empty() ? std::string()

@@ -801,10 +801,19 @@ TEST_F(FastddsDomain, ConfigFastDdsRefusesIsAClearError) {
       "<dds xmlns=\"http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles\"><profiles>"
       "<participant profile_name=\"bad\"><rtps><no_such_setting>1</no_such_setting></rtps></participant>"
       "</profiles></dds>");
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
   auto made = pf::make_fastdds_domain(163, refused.string());
+  const std::string out = testing::internal::GetCapturedStdout();
+  const std::string err = testing::internal::GetCapturedStderr();
   ASSERT_FALSE(made.ok());
   EXPECT_NE(made.error().message.find(refused.string()), std::string::npos) << made.error().message;
   EXPECT_NE(made.error().message.find("refused"), std::string::npos) << made.error().message;
+  // Why, in Fast DDS's words: on standard error as polyport's log lines, before the call
+  // returned (sdk_log.hpp), and nothing on standard output.
+  EXPECT_NE(err.find(" error fastdds XMLPARSER: "), std::string::npos) << err;
+  EXPECT_NE(err.find("no_such_setting"), std::string::npos) << err;
+  EXPECT_EQ(out.find("XMLPARSER"), std::string::npos) << out;
 }
 
 // A copy of the shipped file with another participant name, loaded after it in the same
