@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,42 @@ extern "C" inline void on_signal(int) { g_stop = true; }
 inline void stop_on_signals() {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+}
+
+// The command line both programs take:
+//   ping DOMAIN SIZE ROUNDS WARMUP [SAMPLES] | pong DOMAIN SIZE | relay DOMAIN_A DOMAIN_B SIZE
+// with SIZE 16 or 1024. nullopt (after printing the usage) when it is not one of those.
+struct Command {
+  std::string mode;  // "ping", "pong" or "relay"
+  int size = 0;
+  int domain = 0;    // ping, pong; relay: domain A
+  int domain_b = 0;  // relay only
+  int rounds = 0;    // ping only
+  int warmup = 0;    // ping only
+  const char* samples = nullptr;  // ping only, optional
+};
+
+inline std::optional<Command> parse_command(int argc, char** argv) {
+  const auto int_at = [&](int i) { return argc > i ? std::atoi(argv[i]) : 0; };
+  Command c;
+  c.mode = argc > 1 ? argv[1] : "";
+  c.domain = int_at(2);
+  c.size = c.mode == "relay" ? int_at(4) : int_at(3);
+  const bool known = (c.mode == "ping" && argc >= 6) || c.mode == "pong" || c.mode == "relay";
+  if (!known || (c.size != 16 && c.size != 1024)) {
+    std::fprintf(stderr,
+                 "usage: %s ping DOMAIN SIZE ROUNDS WARMUP [SAMPLES] | pong DOMAIN SIZE | relay DOMAIN_A DOMAIN_B SIZE\n"
+                 "       SIZE: 16 or 1024\n",
+                 argv[0]);
+    return std::nullopt;
+  }
+  if (c.mode == "relay") c.domain_b = int_at(3);
+  if (c.mode == "ping") {
+    c.rounds = int_at(4);
+    c.warmup = int_at(5);
+    c.samples = argc >= 7 ? argv[6] : nullptr;
+  }
+  return c;
 }
 
 inline std::int64_t now_ns() {

@@ -174,27 +174,15 @@ int relay(dds_domainid_t a, dds_domainid_t b, const dds_topic_descriptor_t* type
 
 int main(int argc, char** argv) {
   bench::stop_on_signals();
-  const std::string mode = argc > 1 ? argv[1] : "";
-  const auto size_at = [&](int i) { return argc > i ? std::atoi(argv[i]) : 0; };
-  const auto domain_at = [&](int i) { return static_cast<dds_domainid_t>(std::atoi(argv[i])); };
-  const int size = mode == "relay" ? size_at(4) : size_at(3);
-  if (size != 16 && size != 1024) {
-    std::fprintf(stderr,
-                 "usage: %s ping DOMAIN SIZE ROUNDS WARMUP [SAMPLES] | pong DOMAIN SIZE | relay DOMAIN_A DOMAIN_B SIZE\n"
-                 "       SIZE: 16 or 1024\n",
-                 argv[0]);
-    return 2;
-  }
-  const bool small = size == 16;
+  const std::optional<bench::Command> c = bench::parse_command(argc, argv);
+  if (!c) return 2;
+  const bool small = c->size == 16;
   const dds_topic_descriptor_t* type = small ? &bench_Ping16_desc : &bench_Ping1k_desc;
-  if (mode == "ping" && argc >= 6) {
-    const int rounds = std::atoi(argv[4]);
-    const int warmup = std::atoi(argv[5]);
-    const char* samples = argc >= 7 ? argv[6] : nullptr;
-    return small ? ping<bench_Ping16>(domain_at(2), type, rounds, warmup, size, samples)
-                 : ping<bench_Ping1k>(domain_at(2), type, rounds, warmup, size, samples);
+  const auto domain = static_cast<dds_domainid_t>(c->domain);
+  if (c->mode == "ping") {
+    return small ? ping<bench_Ping16>(domain, type, c->rounds, c->warmup, c->size, c->samples)
+                 : ping<bench_Ping1k>(domain, type, c->rounds, c->warmup, c->size, c->samples);
   }
-  if (mode == "pong") return pong(domain_at(2), type);
-  if (mode == "relay") return relay(domain_at(2), domain_at(3), type);
-  return 2;
+  if (c->mode == "pong") return pong(domain, type);
+  return relay(domain, static_cast<dds_domainid_t>(c->domain_b), type);
 }

@@ -193,31 +193,17 @@ int relay(int a, int b) {
 
 int main(int argc, char** argv) {
   bench::stop_on_signals();
-  const std::string mode = argc > 1 ? argv[1] : "";
-  const auto int_at = [&](int i) { return argc > i ? std::atoi(argv[i]) : 0; };
-  const int size = mode == "relay" ? int_at(4) : int_at(3);
-  if (size != 16 && size != 1024) {
-    std::fprintf(stderr,
-                 "usage: %s ping DOMAIN SIZE ROUNDS WARMUP [SAMPLES] | pong DOMAIN SIZE | relay DOMAIN_A DOMAIN_B SIZE\n"
-                 "       SIZE: 16 or 1024\n",
-                 argv[0]);
-    return 2;
+  const std::optional<bench::Command> c = bench::parse_command(argc, argv);
+  if (!c) return 2;
+  const bool small = c->size == 16;
+  if (c->mode == "ping") {
+    return small ? ping<bench::Ping16, bench::Ping16PubSubType>(c->domain, c->rounds, c->warmup, c->size, c->samples)
+                 : ping<bench::Ping1k, bench::Ping1kPubSubType>(c->domain, c->rounds, c->warmup, c->size, c->samples);
   }
-  const bool small = size == 16;
-  if (mode == "ping" && argc >= 6) {
-    const int rounds = int_at(4);
-    const int warmup = int_at(5);
-    const char* samples = argc >= 7 ? argv[6] : nullptr;
-    return small ? ping<bench::Ping16, bench::Ping16PubSubType>(int_at(2), rounds, warmup, size, samples)
-                 : ping<bench::Ping1k, bench::Ping1kPubSubType>(int_at(2), rounds, warmup, size, samples);
+  if (c->mode == "pong") {
+    return small ? pong<bench::Ping16, bench::Ping16PubSubType>(c->domain)
+                 : pong<bench::Ping1k, bench::Ping1kPubSubType>(c->domain);
   }
-  if (mode == "pong") {
-    return small ? pong<bench::Ping16, bench::Ping16PubSubType>(int_at(2))
-                 : pong<bench::Ping1k, bench::Ping1kPubSubType>(int_at(2));
-  }
-  if (mode == "relay") {
-    return small ? relay<bench::Ping16, bench::Ping16PubSubType>(int_at(2), int_at(3))
-                 : relay<bench::Ping1k, bench::Ping1kPubSubType>(int_at(2), int_at(3));
-  }
-  return 2;
+  return small ? relay<bench::Ping16, bench::Ping16PubSubType>(c->domain, c->domain_b)
+               : relay<bench::Ping1k, bench::Ping1kPubSubType>(c->domain, c->domain_b);
 }
