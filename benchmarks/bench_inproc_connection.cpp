@@ -14,8 +14,8 @@
 #include <cstdlib>
 #include <vector>
 
-#include "polyport/component.hpp"
-#include "polyport/connection.hpp"
+#include "polyport/runtime/component.hpp"
+#include "polyport/runtime/connection.hpp"
 
 namespace {
 

@@ -1,6 +1,6 @@
 #pragma once
 
-#include "polyport/model.hpp"
+#include "polyport/runtime/model.hpp"
 
 namespace polyport::daemon {
 

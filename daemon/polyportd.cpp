@@ -19,9 +19,9 @@
 #include <sstream>
 
 #include "models.hpp"
-#include "polyport/engine.hpp"
-#include "polyport/profile.hpp"
-#include "polyport/types.hpp"
+#include "polyport/runtime/engine.hpp"
+#include "polyport/profile/profile.hpp"
+#include "polyport/types/types.hpp"
 #include "tracer.hpp"
 #include "types_command.hpp"
 

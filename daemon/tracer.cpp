@@ -3,7 +3,7 @@
 #include <cerrno>
 #include <cstring>
 
-#include "polyport/types.hpp"
+#include "polyport/types/types.hpp"
 
 namespace polyport::daemon {
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "polyport/engine.hpp"
+#include "polyport/runtime/engine.hpp"
 
 namespace polyport::daemon {
 

@@ -3,7 +3,7 @@
 
 #include <cstdio>
 
-#include "polyport/dbc.hpp"
+#include "polyport/types/dbc.hpp"
 
 namespace polyport::daemon {
 

@@ -4,7 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <ostream>
 
-#include "polyport/types.hpp"
+#include "polyport/types/types.hpp"
 
 namespace polyport::daemon {
 

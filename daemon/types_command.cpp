@@ -5,7 +5,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "polyport/types.hpp"
+#include "polyport/types/types.hpp"
 #include "type_printer.hpp"
 
 namespace polyport::daemon {

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "polyport/model.hpp"
+#include "polyport/runtime/model.hpp"
 
 namespace polyport::dds {
 

@@ -22,12 +22,12 @@
 #include <string>
 #include <vector>
 
-#include "polyport/codec.hpp"
-#include "polyport/component.hpp"
-#include "polyport/diagnostics.hpp"
-#include "polyport/profile.hpp"
-#include "polyport/service.hpp"
-#include "polyport/types.hpp"
+#include "polyport/codecs/codec.hpp"
+#include "polyport/runtime/component.hpp"
+#include "polyport/base/diagnostics.hpp"
+#include "polyport/profile/profile.hpp"
+#include "polyport/runtime/service.hpp"
+#include "polyport/types/types.hpp"
 
 namespace polyport::dds {
 

@@ -1,6 +1,6 @@
 #include "inproc_adaptor.hpp"
 
-#include "polyport/model.hpp"
+#include "polyport/runtime/model.hpp"
 
 #include <string>
 

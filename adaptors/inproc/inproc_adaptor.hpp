@@ -6,11 +6,11 @@
 
 #include <memory>
 
-#include "polyport/component.hpp"
-#include "polyport/component_api.hpp"
-#include "polyport/diagnostics.hpp"
-#include "polyport/profile.hpp"
-#include "polyport/types.hpp"
+#include "polyport/runtime/component.hpp"
+#include "polyport/runtime/component_api.hpp"
+#include "polyport/base/diagnostics.hpp"
+#include "polyport/profile/profile.hpp"
+#include "polyport/types/types.hpp"
 
 namespace polyport::inproc {
 

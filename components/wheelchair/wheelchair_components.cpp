@@ -16,7 +16,7 @@
 #include <string>
 #include <string_view>
 
-#include "polyport/component_api.hpp"
+#include "polyport/runtime/component_api.hpp"
 #include "steering.hpp"
 #include "wheelchair_types.hpp"
 

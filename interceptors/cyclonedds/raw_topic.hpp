@@ -23,10 +23,10 @@
 #include <memory>
 #include <string>
 
-#include "polyport/clock.hpp"
-#include "polyport/profile.hpp"
-#include "polyport/result.hpp"
-#include "polyport/status.hpp"
+#include "polyport/base/clock.hpp"
+#include "polyport/profile/profile.hpp"
+#include "polyport/base/result.hpp"
+#include "polyport/base/status.hpp"
 
 struct ddsi_sertype;
 

@@ -22,10 +22,10 @@
 #include <string>
 #include <string_view>
 
-#include "polyport/clock.hpp"
-#include "polyport/profile.hpp"
-#include "polyport/result.hpp"
-#include "polyport/status.hpp"
+#include "polyport/base/clock.hpp"
+#include "polyport/profile/profile.hpp"
+#include "polyport/base/result.hpp"
+#include "polyport/base/status.hpp"
 
 namespace polyport::dds {
 

@@ -2,7 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "polyport/component_api.hpp"
+#include "polyport/runtime/component_api.hpp"
 
 namespace polyport::dds {
 

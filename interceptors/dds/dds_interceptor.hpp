@@ -24,7 +24,7 @@
 #include "dds_adaptor.hpp"
 #include "dds_endpoint.hpp"
 #include "dds_service.hpp"
-#include "polyport/model.hpp"
+#include "polyport/runtime/model.hpp"
 
 namespace polyport::dds {
 

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "dds_endpoint.hpp"
-#include "polyport/model.hpp"
+#include "polyport/runtime/model.hpp"
 
 namespace polyport::dds {
 

@@ -39,8 +39,8 @@
 
 #include "dds_adaptor.hpp"
 #include "dds_endpoint.hpp"
-#include "polyport/result.hpp"
-#include "polyport/service.hpp"
+#include "polyport/base/result.hpp"
+#include "polyport/runtime/service.hpp"
 
 namespace polyport::dds {
 

@@ -25,7 +25,7 @@
 
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
 
-#include "polyport/result.hpp"
+#include "polyport/base/result.hpp"
 
 namespace polyport::fastdds {
 

@@ -22,11 +22,11 @@
 
 #include <fastdds/dds/topic/TopicDataType.hpp>
 
-#include "polyport/clock.hpp"
-#include "polyport/drain_gate.hpp"
-#include "polyport/profile.hpp"
-#include "polyport/result.hpp"
-#include "polyport/status.hpp"
+#include "polyport/base/clock.hpp"
+#include "polyport/runtime/drain_gate.hpp"
+#include "polyport/profile/profile.hpp"
+#include "polyport/base/result.hpp"
+#include "polyport/base/status.hpp"
 
 namespace eprosima::fastdds::dds {
 class DomainParticipant;

@@ -5,9 +5,9 @@
 #include <memory>
 #include <vector>
 
-#include "polyport/component_api.hpp"
-#include "polyport/execution_context.hpp"
-#include "polyport/model.hpp"
+#include "polyport/runtime/component_api.hpp"
+#include "polyport/runtime/execution_context.hpp"
+#include "polyport/runtime/model.hpp"
 
 namespace polyport::inproc {
 

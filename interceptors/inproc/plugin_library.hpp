@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "polyport/component_api.hpp"
-#include "polyport/result.hpp"
+#include "polyport/runtime/component_api.hpp"
+#include "polyport/base/result.hpp"
 
 namespace polyport::inproc {
 

@@ -5,11 +5,11 @@
 #include <vector>
 
 #include "alloc_counter.hpp"
-#include "polyport/codec.hpp"
-#include "polyport/component.hpp"
-#include "polyport/connection.hpp"
-#include "polyport/mapping.hpp"
-#include "polyport/types.hpp"
+#include "polyport/codecs/codec.hpp"
+#include "polyport/runtime/component.hpp"
+#include "polyport/runtime/connection.hpp"
+#include "polyport/codecs/mapping.hpp"
+#include "polyport/types/types.hpp"
 
 namespace polyport {
 namespace {

@@ -8,10 +8,10 @@
 
 #include "alloc_counter.hpp"
 #include "inproc_model.hpp"
-#include "polyport/component.hpp"
-#include "polyport/connection.hpp"
-#include "polyport/engine.hpp"
-#include "polyport/types.hpp"
+#include "polyport/runtime/component.hpp"
+#include "polyport/runtime/connection.hpp"
+#include "polyport/runtime/engine.hpp"
+#include "polyport/types/types.hpp"
 #include "../support/eventually.hpp"
 
 namespace polyport {

@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "alloc_counter.hpp"
-#include "polyport/diagnostics.hpp"
-#include "polyport/mapping.hpp"
-#include "polyport/types.hpp"
+#include "polyport/base/diagnostics.hpp"
+#include "polyport/codecs/mapping.hpp"
+#include "polyport/types/types.hpp"
 
 namespace polyport {
 namespace {

@@ -17,7 +17,7 @@
 #include "cyclonedds_domain.hpp"
 #include "dds_model.hpp"
 #include "dds/dds.h"
-#include "polyport/engine.hpp"
+#include "polyport/runtime/engine.hpp"
 
 namespace polyport {
 namespace {

@@ -19,9 +19,9 @@
 #include <vector>
 
 #include "dds/dds.h"
-#include "polyport/codec.hpp"
-#include "polyport/diagnostics.hpp"
-#include "polyport/types.hpp"
+#include "polyport/codecs/codec.hpp"
+#include "polyport/base/diagnostics.hpp"
+#include "polyport/types/types.hpp"
 #include "raw_topic.hpp"
 
 namespace {

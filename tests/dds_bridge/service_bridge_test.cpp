@@ -16,8 +16,8 @@
 #include "dds_adaptor.hpp"
 #include "dds_interceptor.hpp"
 #include "memory_domain.hpp"
-#include "polyport/codec.hpp"
-#include "polyport/service.hpp"
+#include "polyport/codecs/codec.hpp"
+#include "polyport/runtime/service.hpp"
 
 namespace polyport {
 namespace {

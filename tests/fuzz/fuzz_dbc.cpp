@@ -12,9 +12,9 @@
 #include <string_view>
 #include <vector>
 
-#include "polyport/codec.hpp"
-#include "polyport/dbc.hpp"
-#include "polyport/types.hpp"
+#include "polyport/codecs/codec.hpp"
+#include "polyport/types/dbc.hpp"
+#include "polyport/types/types.hpp"
 
 namespace {
 

@@ -5,7 +5,7 @@
 #include <string_view>
 #include <vector>
 
-#include "polyport/types.hpp"
+#include "polyport/types/types.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   polyport::TypeRegistry registry;

@@ -7,8 +7,8 @@
 #include <cstdio>
 #include <string>
 
-#include "polyport/profile.hpp"
-#include "polyport/types.hpp"
+#include "polyport/profile/profile.hpp"
+#include "polyport/types/types.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const std::string path = "/tmp/polyport-fuzz-profile-" + std::to_string(getpid()) + ".xml";

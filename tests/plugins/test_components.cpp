@@ -1,7 +1,7 @@
 // Small components that the tests load through the in-process model, like any plugin.
 #include <cstdint>
 
-#include "polyport/component_api.hpp"
+#include "polyport/runtime/component_api.hpp"
 
 namespace polyport::test {
 

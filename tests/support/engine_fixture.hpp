@@ -7,9 +7,9 @@
 #include <memory>
 #include <string>
 
-#include "polyport/engine.hpp"
-#include "polyport/profile.hpp"
-#include "polyport/types.hpp"
+#include "polyport/runtime/engine.hpp"
+#include "polyport/profile/profile.hpp"
+#include "polyport/types/types.hpp"
 
 namespace polyport::test {
 

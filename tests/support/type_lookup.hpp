@@ -6,7 +6,7 @@
 
 #include <string_view>
 
-#include "polyport/types.hpp"
+#include "polyport/types/types.hpp"
 
 namespace polyport::test {
 

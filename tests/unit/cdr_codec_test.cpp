@@ -12,9 +12,9 @@
 #include <string_view>
 #include <vector>
 
-#include "polyport/codec.hpp"
-#include "polyport/diagnostics.hpp"
-#include "polyport/types.hpp"
+#include "polyport/codecs/codec.hpp"
+#include "polyport/base/diagnostics.hpp"
+#include "polyport/types/types.hpp"
 
 namespace {
 

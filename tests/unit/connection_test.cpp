@@ -5,8 +5,8 @@
 #include <cstring>
 #include <thread>
 
-#include "polyport/component.hpp"
-#include "polyport/connection.hpp"
+#include "polyport/runtime/component.hpp"
+#include "polyport/runtime/connection.hpp"
 
 namespace polyport {
 namespace {

@@ -7,9 +7,9 @@
 #include <cstring>
 #include <limits>
 
-#include "polyport/component.hpp"
-#include "polyport/connection.hpp"
-#include "polyport/types.hpp"
+#include "polyport/runtime/component.hpp"
+#include "polyport/runtime/connection.hpp"
+#include "polyport/types/types.hpp"
 
 namespace polyport {
 namespace {

@@ -3,7 +3,7 @@
 // The independent checks are the worked examples of the reference (can-lcm-components.md
 // section 2.7) and a bit walker below that follows that section's wording one bit at a
 // time; the codec's shift-and-mask windows are compared against it on random layouts.
-#include "polyport/dbc.hpp"
+#include "polyport/types/dbc.hpp"
 
 #include <gtest/gtest.h>
 
@@ -21,9 +21,9 @@
 #include <string>
 #include <vector>
 
-#include "polyport/codec.hpp"
-#include "polyport/diagnostics.hpp"
-#include "polyport/types.hpp"
+#include "polyport/codecs/codec.hpp"
+#include "polyport/base/diagnostics.hpp"
+#include "polyport/types/types.hpp"
 
 namespace {
 

@@ -1,6 +1,6 @@
 // DrainGate: one drainer at a time, no notification left without a later drain, nested
 // notifications do not recurse.
-#include "polyport/drain_gate.hpp"
+#include "polyport/runtime/drain_gate.hpp"
 
 #include <algorithm>
 #include <atomic>

@@ -8,9 +8,9 @@
 #include <thread>
 
 #include "inproc_model.hpp"
-#include "polyport/component_api.hpp"
-#include "polyport/engine.hpp"
-#include "polyport/types.hpp"
+#include "polyport/runtime/component_api.hpp"
+#include "polyport/runtime/engine.hpp"
+#include "polyport/types/types.hpp"
 #include "../support/engine_fixture.hpp"
 #include "../support/eventually.hpp"
 

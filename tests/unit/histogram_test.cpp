@@ -1,4 +1,4 @@
-#include "polyport/histogram.hpp"
+#include "polyport/runtime/histogram.hpp"
 
 #include <gtest/gtest.h>
 

@@ -8,8 +8,8 @@
 #include <thread>
 #include <vector>
 
-#include "polyport/component_api.hpp"
-#include "polyport/execution_context.hpp"
+#include "polyport/runtime/component_api.hpp"
+#include "polyport/runtime/execution_context.hpp"
 #include "../support/eventually.hpp"
 
 namespace polyport {

@@ -1,7 +1,7 @@
 // MappingProgram: what compile() accepts and refuses (with the exact messages), and what
 // run() writes, on flat samples built from the layouts the type registry computes.
 
-#include "polyport/mapping.hpp"
+#include "polyport/codecs/mapping.hpp"
 
 #include <gtest/gtest.h>
 
@@ -17,8 +17,8 @@
 #include <utility>
 #include <vector>
 
-#include "polyport/diagnostics.hpp"
-#include "polyport/types.hpp"
+#include "polyport/base/diagnostics.hpp"
+#include "polyport/types/types.hpp"
 
 namespace {
 

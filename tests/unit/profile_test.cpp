@@ -16,9 +16,9 @@
 #include <utility>
 #include <vector>
 
-#include "polyport/diagnostics.hpp"
-#include "polyport/profile.hpp"
-#include "polyport/types.hpp"
+#include "polyport/base/diagnostics.hpp"
+#include "polyport/profile/profile.hpp"
+#include "polyport/types/types.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "polyport/sample_buffer.hpp"
+#include "polyport/runtime/sample_buffer.hpp"
 
 #include <gtest/gtest.h>
 

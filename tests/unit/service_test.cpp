@@ -8,9 +8,9 @@
 #include <cstring>
 #include <thread>
 
-#include "polyport/component.hpp"
-#include "polyport/service.hpp"
-#include "polyport/types.hpp"
+#include "polyport/runtime/component.hpp"
+#include "polyport/runtime/service.hpp"
+#include "polyport/types/types.hpp"
 
 namespace polyport {
 namespace {

@@ -1,4 +1,4 @@
-#include "polyport/types.hpp"
+#include "polyport/types/types.hpp"
 
 #include <gtest/gtest.h>
 
@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "polyport/diagnostics.hpp"
+#include "polyport/base/diagnostics.hpp"
 
 namespace {
 

@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "polyport/codec.hpp"
-#include "polyport/types.hpp"
+#include "polyport/codecs/codec.hpp"
+#include "polyport/types/types.hpp"
 
 extern "C" {
 #include "demo_pair_t.h"

@@ -1,0 +1,175 @@
+// Application and component profiles: the OPRoS `application_profile` / `component_profile`
+// XML shapes, extended with what polyport needs (model, policy, depth, type files). The
+// loader reads them into these plain structs, reporting every problem as
+// `file:line:col: element path: message`; nothing runs when any problem was found.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "polyport/base/diagnostics.hpp"
+#include "polyport/codecs/mapping.hpp"
+
+namespace polyport {
+
+class TypeRegistry;
+
+enum class PortKind : std::uint8_t { data, service, event };
+enum class PortDirection : std::uint8_t { input, output, provided, required };
+enum class QueuePolicy : std::uint8_t { data, buffer, circular };
+enum class ExecutionType : std::uint8_t { periodic, periodic_exclusive, aperiodic, passive };
+enum class SchedPolicy : std::uint8_t { other, fifo, rr };
+enum class InitialState : std::uint8_t { inactive, active };
+
+struct OperationSpec {
+  std::string name;
+  std::string request_type;  // empty: no request payload
+  std::string reply_type;    // empty: no reply payload
+  bool oneway = false;       // `send`: no reply at all
+  // DDS models: the structs on the request and reply topics (a correlation header, then the
+  // payload; see docs/PROFILES.md). Empty for other models.
+  std::string dds_request_type;
+  std::string dds_reply_type;
+  SourceLocation where;
+};
+
+// DDS endpoint QoS (DDS models). The defaults are ROS 2's default profile, which is also what
+// idlc / fastddsgen example applications use: reliable, volatile, keep_last 10, no deadline,
+// infinite lifespan, automatic liveliness with an infinite lease, the default partition.
+// A component's <dds><qos> sets its ports' QoS; a port's <qos> overrides it field by field.
+struct DdsQos {
+  enum class Reliability : std::uint8_t { best_effort, reliable };
+  enum class Durability : std::uint8_t { volatile_, transient_local };
+  enum class History : std::uint8_t { keep_last, keep_all };
+  enum class Liveliness : std::uint8_t { automatic, manual_by_participant, manual_by_topic };
+  Reliability reliability = Reliability::reliable;
+  Durability durability = Durability::volatile_;
+  History history = History::keep_last;
+  std::int32_t depth = 10;                 // keep_last only
+  std::optional<std::int64_t> deadline_ns;  // nullopt: infinite
+  std::optional<std::int64_t> lifespan_ns;  // nullopt: infinite
+  Liveliness liveliness = Liveliness::automatic;
+  std::optional<std::int64_t> lease_ns;     // nullopt: infinite
+  std::vector<std::string> partitions;      // empty: the default ("") partition
+
+  bool operator==(const DdsQos&) const = default;
+};
+
+struct PortSpec {
+  std::string name;
+  PortKind kind = PortKind::data;
+  PortDirection direction = PortDirection::input;
+  std::string data_type;               // data and event ports (event: may be empty)
+  std::string service_type;            // service ports: the interface name both sides share
+  std::vector<OperationSpec> operations;  // service ports
+  std::optional<QueuePolicy> policy;   // input data/event ports: reading-side policy
+  std::optional<std::uint32_t> depth;  // buffer/circular depth
+  std::string topic;                   // DDS models: the topic (service ports: the base of the
+                                       // request/reply topics); empty: the port name
+  DdsQos qos;                          // DDS models: the component's <dds><qos>, then the port's
+  SourceLocation where;
+};
+
+struct PropertySpec {
+  std::string name;
+  std::string type;   // as written ("double", "int", "string", "bool"); may be empty
+  std::string value;
+  SourceLocation where;
+};
+
+struct ExecutionSemantics {
+  ExecutionType type = ExecutionType::periodic;
+  double period_ms = 10.0;          // OPRoS: milliseconds
+  int priority = 0;                 // SCHED_FIFO / SCHED_RR priority when policy asks for it
+  SchedPolicy policy = SchedPolicy::other;
+  std::optional<int> cpu;           // pin the execution context's thread to this CPU
+  SourceLocation where;
+};
+
+struct ComponentProfile {
+  std::filesystem::path file;       // absolute path of the component profile
+  std::string name;                 // the component type's name
+  std::string model = "inproc";     // which model runs it
+  std::string library;              // inproc: the shared library as written
+  std::filesystem::path library_path;  // inproc: resolved path (empty if not found)
+  std::string class_name;           // inproc: component class in the library (default: name)
+  ExecutionSemantics execution;
+  // DDS models (<dds>): the domain id, and the middleware configuration file (absolute).
+  // dds_config: nullopt = the model's shipped default; an empty path = the SDK's own defaults
+  // (for Cyclone: CYCLONEDDS_URI from the environment).
+  std::uint32_t dds_domain = 0;
+  std::optional<std::filesystem::path> dds_config;
+  DdsQos dds_qos;                        // <dds><qos>: the default of every port
+  std::uint32_t dds_max_calls_in_flight = 16;  // per service port, both directions
+  std::int64_t dds_call_timeout_ns = 1'000'000'000;  // a DDS provider's reply, at most
+  SourceLocation dds_where;
+  InitialState initial_state = InitialState::active;  // OPRoS lifecycle_type start|stop
+  std::vector<PropertySpec> properties;
+  std::vector<PortSpec> ports;
+  std::vector<std::filesystem::path> type_files;
+  SourceLocation where;
+
+  const PortSpec* find_port(std::string_view port_name) const noexcept;
+  const PropertySpec* find_property(std::string_view property_name) const noexcept;
+};
+
+struct Subcomponent {
+  std::string name;                 // instance name, used by port_connections
+  std::filesystem::path reference;  // resolved path of the component profile
+  ComponentProfile profile;
+  SourceLocation where;
+};
+
+struct ConnectionEnd {
+  std::string component;
+  std::string port;
+  SourceLocation where;
+};
+
+struct ConnectionSpec {
+  PortKind kind = PortKind::data;
+  ConnectionEnd source;
+  ConnectionEnd target;
+  std::optional<QueuePolicy> policy;   // overrides the input port's policy
+  std::optional<std::uint32_t> depth;
+  std::optional<MappingSpec> mapping;  // <mapping> inside <port_connection>
+  // Set by the loader when the two ends' types differ: the compiled mapping (the spec's, or
+  // by name when there is none). Null when the types are the same.
+  std::shared_ptr<const MappingProgram> program;
+  SourceLocation where;
+};
+
+struct ApplicationProfile {
+  std::filesystem::path file;
+  std::string name;
+  std::string description;
+  std::vector<std::filesystem::path> type_files;
+  std::vector<Subcomponent> components;
+  std::vector<ConnectionSpec> connections;
+
+  const Subcomponent* find_component(std::string_view instance_name) const noexcept;
+};
+
+struct LoadOptions {
+  // Where component libraries are looked for, after the component profile's own folder.
+  std::vector<std::filesystem::path> library_path;
+};
+
+// Reads an application profile, every component profile it references and every type file
+// they name (into `types`), then checks the graph: components, ports, kinds, directions and
+// types across each connection, periods, files. Returns the profile when there was no error.
+std::optional<ApplicationProfile> load_application_profile(const std::filesystem::path& file,
+                                                           TypeRegistry& types,
+                                                           const LoadOptions& options,
+                                                           Diagnostics& diagnostics);
+
+std::string_view to_string(PortKind kind) noexcept;
+std::string_view to_string(PortDirection direction) noexcept;
+std::string_view to_string(QueuePolicy policy) noexcept;
+std::string_view to_string(ExecutionType type) noexcept;
+
+}  // namespace polyport

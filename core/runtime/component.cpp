@@ -1,0 +1,80 @@
+#include "polyport/runtime/component.hpp"
+
+#include <charconv>
+#include <cstdlib>
+
+#include "polyport/runtime/component_api.hpp"
+
+namespace polyport {
+
+Component::Component(std::string name, std::string model) : name_(std::move(name)), model_(std::move(model)) {}
+
+Component::~Component() = default;
+
+Port* Component::find_port(std::string_view port_name) const noexcept {
+  for (const auto& port : ports_) {
+    if (port->name() == port_name) return port.get();
+  }
+  return nullptr;
+}
+
+ComponentBase::~ComponentBase() = default;
+
+std::string_view to_string(ReturnCode code) noexcept {
+  switch (code) {
+    case ReturnCode::ok: return "ok";
+    case ReturnCode::error: return "error";
+    case ReturnCode::bad_parameter: return "bad_parameter";
+    case ReturnCode::unsupported: return "unsupported";
+    case ReturnCode::precondition_not_met: return "precondition_not_met";
+  }
+  return "?";
+}
+
+PortDeclaration& ComponentBase::declare_port(PortDeclaration declaration) {
+  declarations_.push_back(std::move(declaration));
+  return declarations_.back();
+}
+
+void ComponentBase::set_instance(std::string name, std::map<std::string, std::string, std::less<>> properties,
+                                 double period_seconds) {
+  instance_name_ = std::move(name);
+  properties_ = std::move(properties);
+  period_seconds_ = period_seconds;
+}
+
+bool ComponentBase::has_property(std::string_view name) const { return properties_.find(name) != properties_.end(); }
+
+std::string ComponentBase::property(std::string_view name, std::string_view fallback) const {
+  auto it = properties_.find(name);
+  return it == properties_.end() ? std::string(fallback) : it->second;
+}
+
+double ComponentBase::property_double(std::string_view name, double fallback) const {
+  auto it = properties_.find(name);
+  if (it == properties_.end()) return fallback;
+  char* end = nullptr;
+  const double value = std::strtod(it->second.c_str(), &end);
+  return (end == it->second.c_str() || *end != '\0') ? fallback : value;
+}
+
+std::int64_t ComponentBase::property_int(std::string_view name, std::int64_t fallback) const {
+  auto it = properties_.find(name);
+  if (it == properties_.end()) return fallback;
+  std::int64_t value = 0;
+  const char* first = it->second.data();
+  const char* last = first + it->second.size();
+  auto [ptr, ec] = std::from_chars(first, last, value);
+  return (ec != std::errc() || ptr != last) ? fallback : value;
+}
+
+bool ComponentBase::property_bool(std::string_view name, bool fallback) const {
+  auto it = properties_.find(name);
+  if (it == properties_.end()) return fallback;
+  const std::string& v = it->second;
+  if (v == "true" || v == "1" || v == "yes" || v == "on") return true;
+  if (v == "false" || v == "0" || v == "no" || v == "off") return false;
+  return fallback;
+}
+
+}  // namespace polyport

@@ -1,0 +1,143 @@
+// A connection's delivery and hand-off. deliver() is the forwarding path on the writer's
+// thread; take() is the reader's side. The buffer (pull mode) is owned by the connection
+// and allocated once here.
+#include "polyport/runtime/connection.hpp"
+
+#include "polyport/runtime/component.hpp"
+
+#include <algorithm>
+
+namespace polyport {
+
+namespace {
+std::unique_ptr<SampleBuffer> make_buffer(QueuePolicy policy, std::uint32_t depth, std::uint32_t slot_bytes) {
+  switch (policy) {
+    case QueuePolicy::data:
+      return std::make_unique<LatestValueBuffer>(slot_bytes);
+    case QueuePolicy::buffer:
+      return std::make_unique<BoundedQueue>(depth, slot_bytes, BoundedQueue::WhenFull::drop_newest);
+    case QueuePolicy::circular:
+      return std::make_unique<BoundedQueue>(depth, slot_bytes, BoundedQueue::WhenFull::drop_oldest);
+  }
+  return nullptr;
+}
+}  // namespace
+
+Connection::Connection(DataOutPort& source, DataInPort& target, QueuePolicy policy, std::uint32_t depth,
+                       const MappingProgram* mapping)
+    : source_(source),
+      target_(target),
+      policy_(policy),
+      depth_(policy == QueuePolicy::data ? 1 : depth),
+      buffer_(target.sink() ? nullptr : make_buffer(policy, depth_, target.max_sample_bytes())),
+      mapping_(mapping),
+      converts_(mapping != nullptr || source.wire_format() != target.wire_format() || source.type() != target.type()) {
+  if (!converts_) return;
+  // Flat samples of either type, with the larger port's room for unbounded tails.
+  flat_capacity_ = std::max(source.max_sample_bytes(), target.max_sample_bytes());
+  if (source.type()) flat_capacity_ = std::max(flat_capacity_, source.type()->size);
+  if (target.type()) flat_capacity_ = std::max(flat_capacity_, target.type()->size);
+  wire_capacity_ = target.codec() ? target.codec()->max_wire_size(flat_capacity_) : flat_capacity_;
+  if (source.codec()) decoded_ = std::make_unique<std::byte[]>(flat_capacity_);
+  if (mapping_) mapped_ = std::make_unique<std::byte[]>(flat_capacity_);
+  if (target.codec()) encoded_ = std::make_unique<std::byte[]>(wire_capacity_);
+}
+
+std::string Connection::name() const { return source_.full_name() + " -> " + target_.full_name(); }
+
+std::string Connection::conversion() const {
+  if (!converts_) return "passthrough";
+  std::string steps(to_string(source_.wire_format()));
+  if (source_.codec()) steps += " -> flat";
+  if (mapping_) steps += " -> map";
+  if (target_.codec()) steps += " -> " + std::string(to_string(target_.wire_format()));
+  return steps;
+}
+
+void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept {
+  counters_.received.fetch_add(1, std::memory_order_relaxed);
+  if (!converts_) {
+    hand_over(data, meta);
+    return;
+  }
+  SampleMeta converted = meta;
+  const std::byte* bytes = data;
+  if (const Codec* codec = source_.codec()) {
+    const CodecResult decoded = codec->decode(bytes, converted.size, decoded_.get(), flat_capacity_);
+    if (!decoded.ok()) {
+      counters_.dropped_decode_error.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    bytes = decoded_.get();
+    converted.size = decoded.size;
+  }
+  if (mapping_) {
+    std::uint32_t mapped_size = 0;
+    if (!mapping_->run(bytes, converted.size, mapped_.get(), flat_capacity_, mapped_size)) {
+      counters_.dropped_map_error.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    bytes = mapped_.get();
+    converted.size = mapped_size;
+  }
+  if (const Codec* codec = target_.codec()) {
+    const CodecResult encoded = codec->encode(bytes, converted.size, encoded_.get(), wire_capacity_);
+    if (!encoded.ok()) {
+      counters_.dropped_encode_error.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    if (encoded.clamped) counters_.clamped.fetch_add(encoded.clamped, std::memory_order_relaxed);
+    bytes = encoded_.get();
+    converted.size = encoded.size;
+  }
+  hand_over(bytes, converted);
+}
+
+void Connection::hand_over(const std::byte* data, const SampleMeta& meta) noexcept {
+  if (!buffer_) {
+    // polyport's own time ends where the sink (an adaptor, or a foreign SDK's write) begins.
+    const MonoTime handed = mono_now();
+    latency_.record((handed - meta.t_in).count);
+    const Status status = target_.sink()->on_sample(data, meta);
+    sink_time_.record((mono_now() - handed).count);
+    if (status == Status::ok) {
+      counters_.delivered.fetch_add(1, std::memory_order_relaxed);
+    } else {
+      counters_.dropped_sink_error.fetch_add(1, std::memory_order_relaxed);
+    }
+    return;
+  }
+  const PushResult result = buffer_->push(data, meta);
+  latency_.record((mono_now() - meta.t_in).count);
+  switch (result) {
+    case PushResult::stored:
+      counters_.delivered.fetch_add(1, std::memory_order_relaxed);
+      break;
+    case PushResult::overwritten:
+      counters_.delivered.fetch_add(1, std::memory_order_relaxed);
+      counters_.overwritten.fetch_add(1, std::memory_order_relaxed);
+      break;
+    case PushResult::dropped_oldest:
+      counters_.delivered.fetch_add(1, std::memory_order_relaxed);
+      counters_.dropped_oldest.fetch_add(1, std::memory_order_relaxed);
+      break;
+    case PushResult::dropped_newest:
+      counters_.dropped_queue_full.fetch_add(1, std::memory_order_relaxed);
+      break;
+    case PushResult::too_large:
+      counters_.dropped_too_large.fetch_add(1, std::memory_order_relaxed);
+      break;
+  }
+}
+
+PopResult Connection::take(std::byte* dst, std::uint32_t capacity, SampleMeta& meta) noexcept {
+  if (!buffer_) return PopResult::no_data;
+  const PopResult result = buffer_->pop(dst, capacity, meta);
+  if (result == PopResult::new_data) {
+    counters_.read.fetch_add(1, std::memory_order_relaxed);
+    age_.record((mono_now() - meta.t_in).count);
+  }
+  return result;
+}
+
+}  // namespace polyport

@@ -1,0 +1,384 @@
+// Building, starting and stopping the application graph, and its statistics. Control thread.
+#include "polyport/runtime/engine.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "polyport/runtime/component_api.hpp"
+
+namespace polyport {
+
+namespace {
+
+constexpr std::uint32_t kDefaultDepth = 16;
+constexpr std::uint32_t kMaxDepth = 1u << 20;
+
+nlohmann::json to_json(const LatencyHistogram::Summary& s) {
+  return {{"count", s.count}, {"min", s.min}, {"mean", s.mean}, {"p50", s.p50}, {"p90", s.p90},
+          {"p99", s.p99},     {"p999", s.p999}, {"max", s.max}};
+}
+
+std::string join(const std::vector<std::string>& items) {
+  std::string out;
+  for (const auto& item : items) out += (out.empty() ? "" : ", ") + item;
+  return out;
+}
+
+std::string type_name(const Port& port) { return port.type() ? port.type()->name : std::string(); }
+
+}  // namespace
+
+Engine::Engine(const ModelRegistry& models, TypeRegistry& types) : models_(models), types_(types) {}
+
+Engine::~Engine() { stop(); }
+
+bool Engine::build(const ApplicationProfile& profile, Diagnostics& diagnostics) {
+  name_ = profile.name;
+  ModelContext context{types_, executors_};
+  for (const Subcomponent& sub : profile.components) {
+    Model* model = models_.find(sub.profile.model);
+    if (!model) {
+      diagnostics.error(sub.profile.where, "/component_profile/model",
+                        "model '" + sub.profile.model + "' is not available in this build (available: " +
+                            join(models_.names()) + ")");
+      continue;
+    }
+    std::optional<Proxy> proxy = model->create_proxy(sub, context, diagnostics);
+    if (!proxy) continue;
+    nodes_.push_back(Node{sub.name, sub.profile.model, std::move(*proxy)});
+  }
+  if (diagnostics.has_errors()) return false;
+
+  for (const ConnectionSpec& spec : profile.connections) {
+    Port* source = find_port(spec.source.component + "." + spec.source.port);
+    Port* target = find_port(spec.target.component + "." + spec.target.port);
+    if (!source || !target) {
+      diagnostics.error(spec.where, {}, "connection endpoint not created by its model");
+      continue;
+    }
+    auto connected = connect_ports(*source, *target, spec.policy, spec.depth, spec.program);
+    if (!connected) diagnostics.error(spec.where, {}, connected.error().message);
+  }
+  return !diagnostics.has_errors();
+}
+
+Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optional<QueuePolicy> policy,
+                                          std::optional<std::uint32_t> depth,
+                                          std::shared_ptr<const MappingProgram> mapping) {
+  if (source.kind() != target.kind()) {
+    return make_error(source.full_name() + " is a " + std::string(to_string(source.kind())) + " port but " +
+                      target.full_name() + " is a " + std::string(to_string(target.kind())) + " port");
+  }
+  if (source.kind() == PortKind::service) {
+    if (started_) {
+      // Callers read the binding without a lock; it is fixed while the application runs.
+      return make_error("service ports cannot be connected while the application runs");
+    }
+    auto* required = dynamic_cast<RequiredServicePort*>(&source);
+    auto* provided = dynamic_cast<ProvidedServicePort*>(&target);
+    if (!required || !provided) {
+      return make_error("a service connection goes from a required port to a provided port");
+    }
+    if (!required->connect(*provided)) {
+      std::string missing;
+      for (const OperationInfo& op : required->operations()) {
+        if (provided->find_operation(op.name) < 0) missing += (missing.empty() ? "" : ", ") + op.name;
+      }
+      return make_error(provided->full_name() + " does not provide operation(s) " + missing + " that " +
+                        required->full_name() + " calls");
+    }
+    service_links_.emplace_back(required, provided);
+    return static_cast<Connection*>(nullptr);
+  }
+  auto* out = dynamic_cast<DataOutPort*>(&source);
+  auto* in = dynamic_cast<DataInPort*>(&target);
+  if (!out || !in) return make_error("a " + std::string(to_string(source.kind())) + " connection goes from an output port to an input port");
+  if (!mapping && out->type() && in->type() && out->type() != in->type()) {
+    return make_error("type mismatch: " + out->full_name() + " is '" + type_name(*out) + "' but " +
+                      in->full_name() + " is '" + type_name(*in) + "'");
+  }
+  const QueuePolicy effective = policy.value_or(in->policy());
+  const std::uint32_t effective_depth = depth.value_or(in->depth() ? in->depth() : kDefaultDepth);
+  if (effective != QueuePolicy::data && (effective_depth == 0 || effective_depth > kMaxDepth)) {
+    return make_error("queue depth " + std::to_string(effective_depth) + " is out of range (1 to " +
+                      std::to_string(kMaxDepth) + ")");
+  }
+  try {
+    connections_.push_back(std::make_unique<Connection>(*out, *in, effective, effective_depth, mapping.get()));
+  } catch (const std::exception& e) {
+    return make_error("cannot create the connection " + out->full_name() + " -> " + in->full_name() + ": " + e.what());
+  }
+  if (mapping) mappings_.push_back(std::move(mapping));
+  Connection& connection = *connections_.back();
+  in->connections().add(connection);
+  out->connections().add(connection);
+  return &connection;
+}
+
+Result<Connection*> Engine::connect(const std::string& source_component, const std::string& source_port,
+                                    const std::string& target_component, const std::string& target_port,
+                                    std::optional<QueuePolicy> policy, std::optional<std::uint32_t> depth) {
+  Port* source = find_port(source_component + "." + source_port);
+  Port* target = find_port(target_component + "." + target_port);
+  if (!source) return make_error("no port " + source_component + "." + source_port);
+  if (!target) return make_error("no port " + target_component + "." + target_port);
+  return connect_ports(*source, *target, policy, depth);
+}
+
+Result<DataInPort*> Engine::add_probe(const std::string& port_path, std::uint32_t depth) {
+  auto* out = dynamic_cast<DataOutPort*>(find_port(port_path));
+  if (!out) return make_error("no output data port '" + port_path + "'");
+  if (!probes_) probes_ = std::make_unique<Component>("probe", "inproc");
+  auto& in = probes_->add_port<DataInPort>(port_path, out->kind(), out->type(), out->max_sample_bytes(),
+                                           QueuePolicy::circular, depth);
+  connections_.push_back(std::make_unique<Connection>(*out, in, QueuePolicy::circular, depth));
+  in.connections().add(*connections_.back());
+  out->connections().add(*connections_.back());
+  return &in;
+}
+
+Result<void> Engine::start(std::vector<std::string>& warnings) {
+  if (started_) return {};
+  started_ = true;
+  executors_.start_all(warnings);
+  start_order_.clear();
+  for (const std::size_t index : receivers_first()) {
+    Node& node = nodes_[index];
+    Result<void> started = node.proxy.interceptor->start();
+    start_order_.push_back(index);
+    if (!started) {
+      stop();
+      return make_error("component '" + node.name + "' did not start: " + started.error().message);
+    }
+  }
+  return {};
+}
+
+std::vector<std::size_t> Engine::receivers_first() const {
+  std::map<const Component*, std::size_t> index_of;
+  for (std::size_t i = 0; i < nodes_.size(); ++i) index_of[nodes_[i].proxy.adaptor.get()] = i;
+  // sends_to[i]: the nodes node i's data connections and calls go to (probes are not nodes).
+  std::vector<std::vector<std::size_t>> sends_to(nodes_.size());
+  for (const auto& connection : connections_) {
+    const auto source = index_of.find(&connection->source().owner());
+    const auto target = index_of.find(&connection->target().owner());
+    if (source == index_of.end() || target == index_of.end() || source->second == target->second) continue;
+    sends_to[source->second].push_back(target->second);
+  }
+  // A caller's calls go to its provider, which must be accepting them first.
+  for (const auto& [required, provided] : service_links_) {
+    const auto caller = index_of.find(&required->owner());
+    const auto provider = index_of.find(&provided->owner());
+    if (caller == index_of.end() || provider == index_of.end() || caller->second == provider->second) continue;
+    sends_to[caller->second].push_back(provider->second);
+  }
+  std::vector<bool> placed(nodes_.size(), false);
+  std::vector<std::size_t> order;
+  while (order.size() < nodes_.size()) {
+    bool progress = false;
+    for (std::size_t i = 0; i < nodes_.size(); ++i) {
+      if (placed[i]) continue;
+      const bool ready = std::all_of(sends_to[i].begin(), sends_to[i].end(), [&](std::size_t t) { return placed[t]; });
+      if (!ready) continue;
+      placed[i] = true;
+      order.push_back(i);
+      progress = true;
+    }
+    if (progress) continue;
+    // A cycle: the first remaining component in profile order goes next.
+    const auto first = static_cast<std::size_t>(std::find(placed.begin(), placed.end(), false) - placed.begin());
+    placed[first] = true;
+    order.push_back(first);
+  }
+  return order;
+}
+
+void Engine::stop() {
+  if (!started_) return;
+  started_ = false;
+  for (auto it = start_order_.rbegin(); it != start_order_.rend(); ++it) nodes_[*it].proxy.interceptor->stop();
+  start_order_.clear();
+  executors_.stop_all();
+}
+
+Component* Engine::find_component(std::string_view name) const noexcept {
+  for (const Node& node : nodes_) {
+    if (node.name == name) return node.proxy.adaptor.get();
+  }
+  return nullptr;
+}
+
+Interceptor* Engine::find_interceptor(std::string_view name) const noexcept {
+  for (const Node& node : nodes_) {
+    if (node.name == name) return node.proxy.interceptor.get();
+  }
+  return nullptr;
+}
+
+Port* Engine::find_port(std::string_view path) const noexcept {
+  const auto dot = path.find('.');
+  if (dot == std::string_view::npos) return nullptr;
+  Component* component = find_component(path.substr(0, dot));
+  return component ? component->find_port(path.substr(dot + 1)) : nullptr;
+}
+
+void Engine::describe(nlohmann::json& out) const {
+  out["application"] = name_;
+  out["components"] = nlohmann::json::array();
+  for (const Node& node : nodes_) {
+    nlohmann::json component{{"name", node.name}, {"model", node.model}};
+    component["ports"] = nlohmann::json::array();
+    for (const auto& port : node.proxy.adaptor->ports()) {
+      nlohmann::json p{{"name", port->name()},
+                       {"kind", to_string(port->kind())},
+                       {"direction", to_string(port->direction())}};
+      if (port->type()) p["type"] = port->type()->name;
+      if (auto* in = dynamic_cast<const DataInPort*>(port.get())) {
+        p["policy"] = to_string(in->policy());
+        if (in->policy() != QueuePolicy::data) p["depth"] = in->depth();
+      }
+      if (auto* provided = dynamic_cast<const ProvidedServicePort*>(port.get())) {
+        p["service_type"] = provided->service_type();
+        for (const auto& op : provided->operations()) p["operations"].push_back(op.name);
+      }
+      if (auto* required = dynamic_cast<const RequiredServicePort*>(port.get())) {
+        p["service_type"] = required->service_type();
+        for (const auto& op : required->operations()) p["operations"].push_back(op.name);
+      }
+      component["ports"].push_back(std::move(p));
+    }
+    node.proxy.interceptor->describe(component);
+    out["components"].push_back(std::move(component));
+  }
+  out["connections"] = nlohmann::json::array();
+  for (const auto& c : connections_) {
+    if (&c->target().owner() == probes_.get()) continue;
+    nlohmann::json j{{"source", c->source().full_name()},
+                     {"target", c->target().full_name()},
+                     {"kind", to_string(c->source().kind())},
+                     {"type", type_name(c->source())},
+                     {"policy", to_string(c->policy())},
+                     {"mode", c->push_mode() ? "push" : "pull"},
+                     {"conversion", c->conversion()}};
+    if (c->policy() != QueuePolicy::data) j["depth"] = c->depth();
+    out["connections"].push_back(std::move(j));
+  }
+  for (const auto& [required, provided] : service_links_) {
+    out["connections"].push_back({{"source", required->full_name()},
+                                  {"target", provided->full_name()},
+                                  {"kind", "service"},
+                                  {"service_type", provided->service_type()},
+                                  {"max_in_flight", required->max_in_flight()}});
+  }
+  out["execution_contexts"] = nlohmann::json::array();
+  for (const auto& context : executors_.contexts()) {
+    nlohmann::json j{{"name", context->settings().name}, {"period_ns", context->settings().period.count}};
+    for (Lifecycle* member : context->members()) j["members"].push_back(member->component().instance_name());
+    out["execution_contexts"].push_back(std::move(j));
+  }
+}
+
+void Engine::stats(nlohmann::json& out) const {
+  out["application"] = name_;
+  out["components"] = nlohmann::json::array();
+  for (const Node& node : nodes_) {
+    const InterceptorStatus status = node.proxy.interceptor->status();
+    nlohmann::json component{{"name", node.name},
+                             {"model", node.model},
+                             {"state", status.state},
+                             {"executions", status.executions},
+                             {"errors", status.errors}};
+    // The model's own part (e.g. a DDS component's topics: matched peers, samples received
+    // and refused; its services' counters), as `check` shows it, read now.
+    node.proxy.interceptor->describe(component);
+    out["components"].push_back(std::move(component));
+  }
+  out["connections"] = nlohmann::json::array();
+  for (const auto& c : connections_) {
+    const ConnectionCounters& k = c->counters();
+    auto load = [](const std::atomic<std::uint64_t>& v) { return v.load(std::memory_order_relaxed); };
+    nlohmann::json j{{"name", c->name()},
+                     {"source", c->source().full_name()},
+                     {"target", c->target().full_name()},
+                     {"kind", to_string(c->source().kind())},
+                     {"policy", to_string(c->policy())},
+                     {"mode", c->push_mode() ? "push" : "pull"},
+                     {"probe", &c->target().owner() == probes_.get()},
+                     {"received", load(k.received)},
+                     {"delivered", load(k.delivered)},
+                     {"read", load(k.read)},
+                     {"overwritten", load(k.overwritten)},
+                     {"dropped", k.dropped()},
+                     {"dropped_by_reason",
+                      {{"queue_full", load(k.dropped_queue_full)},
+                       {"oldest", load(k.dropped_oldest)},
+                       {"too_large", load(k.dropped_too_large)},
+                       {"sink_error", load(k.dropped_sink_error)},
+                       {"decode_error", load(k.dropped_decode_error)},
+                       {"map_error", load(k.dropped_map_error)},
+                       {"encode_error", load(k.dropped_encode_error)}}},
+                     {"clamped", load(k.clamped)},
+                     {"conversion", c->conversion()},
+                     {"latency_ns", to_json(c->latency().summarize())}};
+    if (!c->push_mode()) j["age_at_read_ns"] = to_json(c->age().summarize());
+    if (c->push_mode()) j["sink_ns"] = to_json(c->sink_time().summarize());
+    out["connections"].push_back(std::move(j));
+  }
+  out["services"] = nlohmann::json::array();
+  for (const auto& [required, provided] : service_links_) {
+    const auto& k = required->counters();
+    auto load = [](const std::atomic<std::uint64_t>& v) { return v.load(std::memory_order_relaxed); };
+    out["services"].push_back({{"name", required->full_name() + " -> " + provided->full_name()},
+                               {"calls", load(k.calls)},
+                               {"ok", load(k.ok)},
+                               {"timeouts", load(k.timeouts)},
+                               {"errors", load(k.errors)},
+                               {"not_connected", load(k.not_connected)},
+                               {"too_many_calls", load(k.too_many_calls)},
+                               {"provider_rejected", provided->rejected()},
+                               {"latency_ns", to_json(required->latency().summarize())}});
+  }
+  out["execution_contexts"] = nlohmann::json::array();
+  for (const auto& context : executors_.contexts()) {
+    nlohmann::json j{{"name", context->settings().name},
+                     {"period_ns", context->settings().period.count},
+                     {"cycles", context->cycles()},
+                     {"overruns", context->overruns()},
+                     {"missed_periods", context->missed_periods()},
+                     {"realtime", context->realtime_applied()},
+                     {"pinned", context->pinned()},
+                     {"wake_jitter_ns", to_json(context->wake_jitter().summarize())},
+                     {"cycle_time_ns", to_json(context->cycle_time().summarize())}};
+    for (Lifecycle* member : context->members()) j["members"].push_back(member->component().instance_name());
+    out["execution_contexts"].push_back(std::move(j));
+  }
+}
+
+std::string Engine::summary_line() const {
+  std::uint64_t executions = 0, received = 0, dropped = 0, overruns = 0;
+  std::int64_t worst_p99 = 0;
+  std::size_t active = 0;
+  for (const Node& node : nodes_) {
+    const InterceptorStatus status = node.proxy.interceptor->status();
+    executions += status.executions;
+    if (status.state == "active") ++active;
+  }
+  for (const auto& c : connections_) {
+    received += c->counters().received.load(std::memory_order_relaxed);
+    dropped += c->counters().dropped();
+    worst_p99 = std::max(worst_p99, c->latency().summarize().p99);
+  }
+  for (const auto& context : executors_.contexts()) overruns += context->overruns();
+  char line[256];
+  std::snprintf(line, sizeof(line),
+                "components %zu/%zu active, executions %llu | connections %zu: received %llu, dropped %llu, "
+                "worst p99 %lld ns | overruns %llu",
+                active, nodes_.size(), static_cast<unsigned long long>(executions), connections_.size(),
+                static_cast<unsigned long long>(received), static_cast<unsigned long long>(dropped),
+                static_cast<long long>(worst_p99), static_cast<unsigned long long>(overruns));
+  return line;
+}
+
+}  // namespace polyport

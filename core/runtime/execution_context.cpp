@@ -1,0 +1,183 @@
+// Periodic execution contexts. The thread sleeps to absolute CLOCK_MONOTONIC deadlines;
+// between cycles it applies at most one pending lifecycle command (handed over under a
+// mutex: the control path, never the data path) and serves queued service calls.
+#include "polyport/runtime/execution_context.hpp"
+
+#include <linux/futex.h>
+#include <pthread.h>
+#include <sched.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <climits>
+
+#include <cerrno>
+#include <cstring>
+
+#include "polyport/runtime/component_api.hpp"
+#include "polyport/runtime/service.hpp"
+
+namespace polyport {
+
+ExecutionContext::ExecutionContext(ExecutionSettings settings) : settings_(std::move(settings)) {
+  // Models refuse periods under kMinPeriod with a diagnostic; this guards the arithmetic.
+  if (settings_.period < kMinPeriod) settings_.period = kMinPeriod;
+}
+
+ExecutionContext::~ExecutionContext() { stop(); }
+
+void ExecutionContext::add(Lifecycle& lifecycle, std::vector<ProvidedServicePort*> served) {
+  members_.push_back(&lifecycle);
+  served_.insert(served_.end(), served.begin(), served.end());
+}
+
+void ExecutionContext::start(std::vector<std::string>& warnings) {
+  if (running()) return;
+  stop_requested_.store(false, std::memory_order_release);
+  running_.store(true, std::memory_order_release);
+  thread_ = std::thread([this] { run(); });
+
+  const std::string name = settings_.name.substr(0, 15);  // the kernel's limit
+  pthread_setname_np(thread_.native_handle(), name.c_str());
+  if (settings_.policy != SchedPolicy::other) {
+    sched_param param{};
+    param.sched_priority = settings_.priority;
+    const int policy = settings_.policy == SchedPolicy::fifo ? SCHED_FIFO : SCHED_RR;
+    const int rc = pthread_setschedparam(thread_.native_handle(), policy, &param);
+    if (rc == 0) {
+      realtime_applied_ = true;
+    } else {
+      warnings.push_back("execution context '" + settings_.name + "': real-time priority " +
+                         std::to_string(settings_.priority) + " refused (" + std::strerror(rc) +
+                         "); running with SCHED_OTHER");
+    }
+  }
+  if (settings_.cpu) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(*settings_.cpu, &set);
+    const int rc = pthread_setaffinity_np(thread_.native_handle(), sizeof(set), &set);
+    if (rc == 0) {
+      pinned_ = true;
+    } else {
+      warnings.push_back("execution context '" + settings_.name + "': pinning to CPU " +
+                         std::to_string(*settings_.cpu) + " refused (" + std::strerror(rc) + "); not pinned");
+    }
+  }
+}
+
+void ExecutionContext::stop() {
+  if (!thread_.joinable()) return;
+  stop_requested_.store(true, std::memory_order_release);
+  wake();
+  thread_.join();
+  running_.store(false, std::memory_order_release);
+  for (ProvidedServicePort* port : served_) port->cancel_queued(Status::not_active);
+}
+
+ReturnCode ExecutionContext::command(Lifecycle& lifecycle, LifecycleCommand command) {
+  std::unique_lock<std::mutex> lock(command_mutex_);
+  // One command at a time; commands are rare, so waiting callers simply queue on the mutex.
+  command_done_.wait(lock, [&] { return !command_pending_.load(std::memory_order_acquire) || !running(); });
+  if (!running()) return lifecycle.apply(command);  // serialized by the mutex
+  command_target_ = &lifecycle;
+  command_ = command;
+  command_finished_ = false;
+  command_pending_.store(true, std::memory_order_release);
+  wake();
+  command_done_.wait(lock, [&] { return command_finished_ || !running(); });
+  // If the thread ended before taking the command, run it here, still under the mutex.
+  const ReturnCode result = command_finished_ ? command_result_ : lifecycle.apply(command);
+  command_pending_.store(false, std::memory_order_release);
+  command_done_.notify_all();
+  return result;
+}
+
+void ExecutionContext::apply_pending_command() {
+  std::lock_guard<std::mutex> lock(command_mutex_);
+  if (!command_pending_.load(std::memory_order_acquire) || command_finished_) return;
+  command_result_ = command_target_->apply(command_);
+  command_finished_ = true;
+  command_done_.notify_all();
+}
+
+void ExecutionContext::wake() noexcept {
+  wake_word_.fetch_add(1, std::memory_order_release);
+  syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(&wake_word_), FUTEX_WAKE_PRIVATE, INT_MAX, nullptr, nullptr, 0);
+}
+
+void ExecutionContext::sleep_until(MonoTime deadline) {
+  // A futex wait with an absolute CLOCK_MONOTONIC deadline (FUTEX_WAIT_BITSET) sleeps as
+  // precisely as clock_nanosleep, but a command or stop() can wake it at once.
+  for (;;) {
+    const std::uint32_t seen = wake_word_.load(std::memory_order_acquire);
+    if (stop_requested_.load(std::memory_order_acquire)) return;
+    if (command_pending_.load(std::memory_order_acquire)) {
+      apply_pending_command();
+      continue;
+    }
+    if (mono_now() >= deadline) return;
+    const timespec until = to_timespec(deadline);
+    syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(&wake_word_), FUTEX_WAIT_BITSET_PRIVATE, seen, &until,
+            nullptr, FUTEX_BITSET_MATCH_ANY);
+  }
+}
+
+void ExecutionContext::run() {
+  MonoTime deadline = mono_now();
+  while (!stop_requested_.load(std::memory_order_acquire)) {
+    if (command_pending_.load(std::memory_order_acquire)) apply_pending_command();
+
+    const MonoTime cycle_start = mono_now();
+    for (ProvidedServicePort* port : served_) port->serve_queued();
+    for (Lifecycle* member : members_) member->execute();
+    const MonoTime cycle_end = mono_now();
+    cycles_.fetch_add(1, std::memory_order_relaxed);
+    cycle_time_.record((cycle_end - cycle_start).count);
+
+    deadline = deadline + settings_.period;
+    if (cycle_end > deadline) {
+      // Overrun: skip the periods already missed instead of running them back-to-back.
+      overruns_.fetch_add(1, std::memory_order_relaxed);
+      const std::int64_t behind = (cycle_end - deadline).count / settings_.period.count + 1;
+      missed_.fetch_add(static_cast<std::uint64_t>(behind), std::memory_order_relaxed);
+      deadline = deadline + Nanos{behind * settings_.period.count};
+    }
+    sleep_until(deadline);
+    if (stop_requested_.load(std::memory_order_acquire)) break;
+    jitter_.record((mono_now() - deadline).count);
+  }
+  // Let a waiting command caller fall back to running inline.
+  std::lock_guard<std::mutex> lock(command_mutex_);
+  running_.store(false, std::memory_order_release);
+  command_done_.notify_all();
+}
+
+ExecutionContext& ExecutionContextPool::shared(const ExecutionSettings& settings) {
+  for (std::size_t i = 0; i < contexts_.size(); ++i) {
+    const ExecutionSettings& s = contexts_[i]->settings();
+    if (!exclusive_[i] && s.period == settings.period && s.policy == settings.policy &&
+        s.priority == settings.priority && s.cpu == settings.cpu) {
+      return *contexts_[i];
+    }
+  }
+  contexts_.push_back(std::make_unique<ExecutionContext>(settings));
+  exclusive_.push_back(false);
+  return *contexts_.back();
+}
+
+ExecutionContext& ExecutionContextPool::exclusive(const ExecutionSettings& settings) {
+  contexts_.push_back(std::make_unique<ExecutionContext>(settings));
+  exclusive_.push_back(true);
+  return *contexts_.back();
+}
+
+void ExecutionContextPool::start_all(std::vector<std::string>& warnings) {
+  for (auto& context : contexts_) context->start(warnings);
+}
+
+void ExecutionContextPool::stop_all() {
+  for (auto& context : contexts_) context->stop();
+}
+
+}  // namespace polyport

@@ -1,0 +1,281 @@
+// The in-process component API (version kComponentApiVersion). A plugin is a shared library
+// that exports `polyport_component_plugin()`, returning its PluginInfo: the API version it
+// was built against and a factory per component class. A component derives from
+// ComponentBase, overrides the lifecycle hooks it needs, and declares its ports as members:
+//
+//   class JoystickComp : public polyport::ComponentBase {
+//     polyport::InPort<Position> position_{*this, "position"};
+//     polyport::OutPort<Reference> reference_{*this, "reference"};
+//     polyport::ReturnCode onExecute() override { ... }
+//   };
+//   POLYPORT_COMPONENTS(POLYPORT_COMPONENT(JoystickComp))
+//
+// The component profile names each port's IDL type; when the component is loaded the
+// engine checks that every declared port exists in the profile with the same direction and
+// that the C++ type has the flat layout's size and alignment (types.hpp). Port types must be
+// trivially copyable structs laid out like the IDL type.
+#pragma once
+
+#include <cstdint>
+#include <cstring>
+#include <deque>
+#include <map>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <vector>
+
+#include "polyport/runtime/lifecycle.hpp"
+#include "polyport/runtime/port.hpp"
+#include "polyport/runtime/service.hpp"
+
+namespace polyport {
+
+inline constexpr int kComponentApiVersion = 1;
+
+enum class ReturnCode : std::uint8_t { ok, error, bad_parameter, unsupported, precondition_not_met };
+std::string_view to_string(ReturnCode code) noexcept;
+
+// What a component declares about one of its ports; the engine fills `bound`.
+struct PortDeclaration {
+  std::string name;
+  PortKind kind = PortKind::data;
+  PortDirection direction = PortDirection::input;
+  std::uint32_t size = 0;   // sizeof the C++ payload type (0: none)
+  std::uint32_t align = 1;
+  Port** bound = nullptr;   // where the engine stores the port it binds
+  // Provided services: handlers by operation name, registered by the component.
+  struct Operation {
+    std::string name;
+    std::uint32_t request_size = 0;
+    std::uint32_t reply_size = 0;
+    ProvidedServicePort::Handler handler;
+    ProvidedServicePort::Dispatch dispatch = ProvidedServicePort::Dispatch::own_thread;
+  };
+  std::vector<Operation> operations;
+};
+
+class ComponentBase {
+ public:
+  ComponentBase() = default;
+  ComponentBase(const ComponentBase&) = delete;
+  ComponentBase& operator=(const ComponentBase&) = delete;
+  virtual ~ComponentBase();
+
+  virtual ReturnCode onInitialize() { return ReturnCode::ok; }
+  virtual ReturnCode onActivated() { return ReturnCode::ok; }
+  virtual ReturnCode onExecute() { return ReturnCode::ok; }
+  virtual void onStateUpdate() {}
+  virtual ReturnCode onDeactivated() { return ReturnCode::ok; }
+  virtual ReturnCode onError() { return ReturnCode::ok; }
+  virtual ReturnCode onReset() { return ReturnCode::ok; }
+  virtual ReturnCode onFinalize() { return ReturnCode::ok; }
+
+  const std::string& instance_name() const noexcept { return instance_name_; }
+  // The period of the execution context running this component (0 when passive).
+  double period_seconds() const noexcept { return period_seconds_; }
+
+  // Properties from the component profile; `fallback` when absent or not convertible.
+  bool has_property(std::string_view name) const;
+  std::string property(std::string_view name, std::string_view fallback = {}) const;
+  double property_double(std::string_view name, double fallback) const;
+  std::int64_t property_int(std::string_view name, std::int64_t fallback) const;
+  bool property_bool(std::string_view name, bool fallback) const;
+
+  // Engine side (used by the in-process model when loading the component).
+  std::deque<PortDeclaration>& port_declarations() noexcept { return declarations_; }
+  PortDeclaration& declare_port(PortDeclaration declaration);
+  void set_instance(std::string name, std::map<std::string, std::string, std::less<>> properties,
+                    double period_seconds);
+
+ private:
+  std::deque<PortDeclaration> declarations_;  // a deque: declarations keep their address
+  std::string instance_name_;
+  std::map<std::string, std::string, std::less<>> properties_;
+  double period_seconds_ = 0.0;
+};
+
+namespace detail {
+template <class T>
+constexpr void check_payload() {
+  static_assert(std::is_trivially_copyable_v<T>, "port payloads must be trivially copyable");
+}
+template <class T>
+PortDeclaration make_declaration(std::string name, PortKind kind, PortDirection direction, Port** bound) {
+  check_payload<T>();
+  return PortDeclaration{std::move(name), kind, direction, static_cast<std::uint32_t>(sizeof(T)),
+                         static_cast<std::uint32_t>(alignof(T)), bound, {}};
+}
+}  // namespace detail
+
+template <class T>
+class OutPort {
+ public:
+  OutPort(ComponentBase& owner, std::string name) {
+    owner.declare_port(detail::make_declaration<T>(std::move(name), PortKind::data,
+                                                   PortDirection::output, &port_));
+  }
+  Status write(const T& value) noexcept { return port().write(&value, sizeof(T)); }
+  // The engine binds a port of the declared kind and direction (checked at load time).
+  DataOutPort& port() const noexcept { return *static_cast<DataOutPort*>(port_); }
+
+ private:
+  Port* port_ = nullptr;
+};
+
+template <class T>
+class InPort {
+ public:
+  InPort(ComponentBase& owner, std::string name) {
+    owner.declare_port(detail::make_declaration<T>(std::move(name), PortKind::data,
+                                                   PortDirection::input, &port_));
+  }
+  // ok: new data; old_data: the latest value again; no_data: `value` is left as it was.
+  Status read(T& value) noexcept { return port().read(&value, sizeof(T)); }
+  DataInPort& port() const noexcept { return *static_cast<DataInPort*>(port_); }
+
+ private:
+  Port* port_ = nullptr;
+};
+
+// Events: a small payload (an int32 code by default) queued for the receiver.
+template <class T = std::int32_t>
+class EventOutPort {
+ public:
+  EventOutPort(ComponentBase& owner, std::string name) {
+    owner.declare_port(detail::make_declaration<T>(std::move(name), PortKind::event,
+                                                   PortDirection::output, &port_));
+  }
+  Status raise(const T& event) noexcept { return static_cast<DataOutPort*>(port_)->write(&event, sizeof(T)); }
+
+ private:
+  Port* port_ = nullptr;
+};
+
+template <class T = std::int32_t>
+class EventInPort {
+ public:
+  EventInPort(ComponentBase& owner, std::string name) {
+    owner.declare_port(detail::make_declaration<T>(std::move(name), PortKind::event,
+                                                   PortDirection::input, &port_));
+  }
+  // ok with the next event, or no_data (`event` is then left as it was).
+  Status take(T& event) noexcept {
+    T next;
+    const Status status = static_cast<DataInPort*>(port_)->read(&next, sizeof(T));
+    if (status != Status::ok) return status == Status::old_data ? Status::no_data : status;
+    event = next;
+    return Status::ok;
+  }
+
+ private:
+  Port* port_ = nullptr;
+};
+
+// A provided service: operations with typed request and reply, registered by name.
+class ProvidedService {
+ public:
+  using Dispatch = ProvidedServicePort::Dispatch;
+  ProvidedService(ComponentBase& owner, std::string name)
+      : declaration_(&owner.declare_port(PortDeclaration{std::move(name), PortKind::service,
+                                                         PortDirection::provided, 0, 1,
+                                                         &port_, {}})) {}
+
+  // fn(const Req&, Rep&) -> ReturnCode
+  template <class Req, class Rep, class F>
+  void provide(std::string operation, F fn, Dispatch dispatch = Dispatch::own_thread) {
+    detail::check_payload<Req>();
+    detail::check_payload<Rep>();
+    declaration_->operations.push_back(
+        {std::move(operation), sizeof(Req), sizeof(Rep),
+         [fn = std::move(fn)](const std::byte* request, std::uint32_t request_size, std::byte* reply,
+                              std::uint32_t& reply_size) mutable -> Status {
+           if (request_size != sizeof(Req) || reply_size < sizeof(Rep)) return Status::bad_size;
+           Req req;
+           std::memcpy(&req, request, sizeof(Req));
+           Rep rep{};
+           ReturnCode code = fn(static_cast<const Req&>(req), rep);
+           std::memcpy(reply, &rep, sizeof(Rep));
+           reply_size = sizeof(Rep);
+           return code == ReturnCode::ok ? Status::ok : Status::error;
+         },
+         dispatch});
+  }
+  // fn(const Req&): a one-way operation.
+  template <class Req, class F>
+  void provide_oneway(std::string operation, F fn, Dispatch dispatch = Dispatch::own_thread) {
+    detail::check_payload<Req>();
+    declaration_->operations.push_back(
+        {std::move(operation), sizeof(Req), 0,
+         [fn = std::move(fn)](const std::byte* request, std::uint32_t request_size, std::byte*,
+                              std::uint32_t& reply_size) mutable -> Status {
+           if (request_size != sizeof(Req)) return Status::bad_size;
+           Req req;
+           std::memcpy(&req, request, sizeof(Req));
+           fn(static_cast<const Req&>(req));
+           reply_size = 0;
+           return Status::ok;
+         },
+         dispatch});
+  }
+  ProvidedServicePort& port() const noexcept { return *static_cast<ProvidedServicePort*>(port_); }
+
+ private:
+  PortDeclaration* declaration_;  // stable: ComponentBase keeps declarations in a deque
+  Port* port_ = nullptr;
+};
+
+class RequiredService {
+ public:
+  RequiredService(ComponentBase& owner, std::string name) {
+    owner.declare_port(PortDeclaration{std::move(name), PortKind::service, PortDirection::required,
+                                       0, 1, &port_, {}});
+  }
+  template <class Req, class Rep>
+  Status query(std::string_view operation, const Req& request, Rep& reply, Nanos timeout) {
+    return port().query(operation, &request, sizeof(Req), &reply, sizeof(Rep), timeout);
+  }
+  template <class Req>
+  CallHandle request(std::string_view operation, const Req& request) {
+    return port().request(operation, &request, sizeof(Req));
+  }
+  template <class Rep>
+  Status receive(CallHandle& handle, Rep& reply, Nanos timeout) {
+    return port().receive(handle, &reply, sizeof(Rep), timeout);
+  }
+  template <class Req>
+  Status send(std::string_view operation, const Req& request) {
+    return port().send(operation, &request, sizeof(Req));
+  }
+  bool connected() const noexcept { return port().connected(); }
+  RequiredServicePort& port() const noexcept { return *static_cast<RequiredServicePort*>(port_); }
+
+ private:
+  Port* port_ = nullptr;
+};
+
+// The plugin's table of component classes.
+struct ComponentFactory {
+  const char* class_name;
+  std::unique_ptr<ComponentBase> (*create)();
+};
+struct PluginInfo {
+  int api_version;
+  const ComponentFactory* factories;
+  std::size_t factory_count;
+};
+
+}  // namespace polyport
+
+#define POLYPORT_COMPONENT(Class) \
+  ::polyport::ComponentFactory { #Class, []() -> std::unique_ptr<::polyport::ComponentBase> { return std::make_unique<Class>(); } }
+
+#define POLYPORT_COMPONENTS(...)                                                           \
+  extern "C" __attribute__((visibility("default"))) const ::polyport::PluginInfo*          \
+  polyport_component_plugin() {                                                            \
+    static const ::polyport::ComponentFactory factories[] = {__VA_ARGS__};                \
+    static const ::polyport::PluginInfo info{::polyport::kComponentApiVersion, factories, \
+                                             sizeof(factories) / sizeof(factories[0])};    \
+    return &info;                                                                          \
+  }

@@ -1,0 +1,104 @@
+// One data or event connection: from an output port to an input port, with the reading
+// side's policy, its lock-free buffer (pull mode) and its instrumentation.
+//
+// deliver() runs on the writer's thread (the forwarding path): no allocation, no lock,
+// no logging. take() runs on the reader's thread. Counters are relaxed atomics read by the
+// stats thread; histograms are lock-free.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "polyport/codecs/codec.hpp"
+#include "polyport/runtime/histogram.hpp"
+#include "polyport/codecs/mapping.hpp"
+#include "polyport/runtime/port.hpp"
+
+namespace polyport {
+
+struct ConnectionCounters {
+  std::atomic<std::uint64_t> received{0};          // samples that entered the connection
+  std::atomic<std::uint64_t> delivered{0};         // stored for the reader, or taken by a sink
+  std::atomic<std::uint64_t> read{0};              // new samples the reader took (pull mode)
+  std::atomic<std::uint64_t> overwritten{0};       // `data`: an unread value was replaced
+  std::atomic<std::uint64_t> dropped_queue_full{0};   // `buffer` full: the new sample
+  std::atomic<std::uint64_t> dropped_oldest{0};       // `circular` full: the oldest sample
+  std::atomic<std::uint64_t> dropped_too_large{0};    // larger than the connection's slots
+  std::atomic<std::uint64_t> dropped_sink_error{0};   // the sink (adaptor) refused it
+  std::atomic<std::uint64_t> dropped_decode_error{0}; // the source's bytes did not decode
+  std::atomic<std::uint64_t> dropped_map_error{0};    // the mapping could not run on it
+  std::atomic<std::uint64_t> dropped_encode_error{0}; // the target format could not hold it
+  std::atomic<std::uint64_t> clamped{0};              // values clamped to range by the encoder
+
+  std::uint64_t dropped() const noexcept {
+    return dropped_queue_full.load(std::memory_order_relaxed) +
+           dropped_oldest.load(std::memory_order_relaxed) +
+           dropped_too_large.load(std::memory_order_relaxed) +
+           dropped_sink_error.load(std::memory_order_relaxed) +
+           dropped_decode_error.load(std::memory_order_relaxed) +
+           dropped_map_error.load(std::memory_order_relaxed) +
+           dropped_encode_error.load(std::memory_order_relaxed);
+  }
+};
+
+class Connection {
+ public:
+  // Pull mode when target has no sink: a buffer of the given policy and depth, with slots
+  // of target.max_sample_bytes(). Push mode (target has a sink): no buffer.
+  // The bytes pass through untouched when both ports share a wire format and a type and
+  // there is no mapping; otherwise the connection decodes the source's format (if not
+  // flat), runs the mapping (if any) and encodes the target's format (if not flat), in
+  // scratch buffers it allocates here, once.
+  Connection(DataOutPort& source, DataInPort& target, QueuePolicy policy, std::uint32_t depth,
+             const MappingProgram* mapping = nullptr);
+  Connection(const Connection&) = delete;
+  Connection& operator=(const Connection&) = delete;
+
+  void deliver(const std::byte* data, const SampleMeta& meta) noexcept;  // writer thread
+  PopResult take(std::byte* dst, std::uint32_t capacity, SampleMeta& meta) noexcept;  // reader
+
+  DataOutPort& source() const noexcept { return source_; }
+  DataInPort& target() const noexcept { return target_; }
+  QueuePolicy policy() const noexcept { return policy_; }
+  std::uint32_t depth() const noexcept { return depth_; }
+  bool push_mode() const noexcept { return buffer_ == nullptr; }
+  bool passthrough() const noexcept { return !converts_; }
+  std::string name() const;  // "A.out -> B.in"
+  std::string conversion() const;  // "passthrough" or the steps, e.g. "xcdr1 -> flat -> map -> lcm"
+
+  const ConnectionCounters& counters() const noexcept { return counters_; }
+  // t_out - t_in, polyport's own time: entry until stored for the reader (pull) or handed to
+  // the sink (push), conversion included.
+  const LatencyHistogram& latency() const noexcept { return latency_; }
+  // t_read - t_in: entry until the reader took the sample (pull mode only).
+  const LatencyHistogram& age() const noexcept { return age_; }
+  // Push mode: time spent in the target's sink (for a foreign model, its SDK's write), which
+  // latency() does not include.
+  const LatencyHistogram& sink_time() const noexcept { return sink_time_; }
+
+ private:
+  DataOutPort& source_;
+  DataInPort& target_;
+  QueuePolicy policy_;
+  std::uint32_t depth_;
+  void hand_over(const std::byte* data, const SampleMeta& meta) noexcept;
+
+  std::unique_ptr<SampleBuffer> buffer_;
+  const MappingProgram* mapping_;
+  bool converts_;
+  // Scratch for conversions (writer thread only): the source's flat sample, the mapped
+  // flat sample, the target's encoded bytes.
+  std::uint32_t flat_capacity_ = 0;
+  std::uint32_t wire_capacity_ = 0;
+  std::unique_ptr<std::byte[]> decoded_;
+  std::unique_ptr<std::byte[]> mapped_;
+  std::unique_ptr<std::byte[]> encoded_;
+  ConnectionCounters counters_;
+  LatencyHistogram latency_;
+  LatencyHistogram age_;
+  LatencyHistogram sink_time_;
+};
+
+}  // namespace polyport

@@ -1,0 +1,91 @@
+// The engine: builds the application graph from a loaded profile (one proxy per component,
+// from its model), wires the port connections, starts and stops everything in order, and
+// reports statistics. Everything here runs on the control thread; the data path is in
+// port.hpp / connection.hpp and runs on the writers' threads.
+#pragma once
+
+#include <deque>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "polyport/runtime/connection.hpp"
+#include "polyport/runtime/execution_context.hpp"
+#include "polyport/runtime/model.hpp"
+#include "polyport/profile/profile.hpp"
+#include "polyport/base/result.hpp"
+#include "polyport/types/types.hpp"
+
+namespace polyport {
+
+class Engine {
+ public:
+  Engine(const ModelRegistry& models, TypeRegistry& types);
+  Engine(const Engine&) = delete;
+  Engine& operator=(const Engine&) = delete;
+  ~Engine();
+
+  // Creates every proxy and connection. Reports all problems; false if there was any.
+  bool build(const ApplicationProfile& profile, Diagnostics& diagnostics);
+  // Starts execution contexts, then initializes and activates components, receivers before
+  // senders: a component starts once every component its data and calls go to has started
+  // (profile order among the rest, e.g. within a cycle), so that a foreign model's writer
+  // exists before the first sample is forwarded to it and a provider accepts calls before its
+  // callers start. Stopping goes the other way round.
+  // Warnings (e.g. real-time priority refused) are returned for the caller to log.
+  Result<void> start(std::vector<std::string>& warnings);
+  // Deactivates and finalizes components in reverse order, then stops the contexts.
+  void stop();
+
+  // Connects a data or event port pair at run time (control thread).
+  Result<Connection*> connect(const std::string& source_component, const std::string& source_port,
+                              const std::string& target_component, const std::string& target_port,
+                              std::optional<QueuePolicy> policy, std::optional<std::uint32_t> depth);
+  // Adds a pull-mode probe on an output port ("Component.port"): an internal input port fed
+  // by a circular connection that a tracer reads from another thread.
+  Result<DataInPort*> add_probe(const std::string& port_path, std::uint32_t depth);
+
+  Component* find_component(std::string_view name) const noexcept;
+  Interceptor* find_interceptor(std::string_view name) const noexcept;
+  Port* find_port(std::string_view path) const noexcept;  // "Component.port"
+  const std::vector<std::unique_ptr<Connection>>& connections() const noexcept { return connections_; }
+  const ExecutionContextPool& executors() const noexcept { return executors_; }
+  TypeRegistry& types() noexcept { return types_; }
+
+  // The resolved graph (components, models, ports, connections with policies) as JSON.
+  void describe(nlohmann::json& out) const;
+  // Statistics: per connection counters and histograms, per component lifecycle, per
+  // execution context jitter and overruns, per service port call counters.
+  void stats(nlohmann::json& out) const;
+  // One line for the periodic summary on stderr.
+  std::string summary_line() const;
+
+ private:
+  struct Node {
+    std::string name;
+    std::string model;
+    Proxy proxy;
+  };
+
+  // Node indexes in start order (see start()).
+  std::vector<std::size_t> receivers_first() const;
+  Result<Connection*> connect_ports(Port& source, Port& target, std::optional<QueuePolicy> policy,
+                                    std::optional<std::uint32_t> depth,
+                                    std::shared_ptr<const MappingProgram> mapping = nullptr);
+
+  const ModelRegistry& models_;
+  TypeRegistry& types_;
+  ExecutionContextPool executors_;
+  std::vector<Node> nodes_;
+  std::vector<std::unique_ptr<Connection>> connections_;
+  std::vector<std::shared_ptr<const MappingProgram>> mappings_;  // used by connections_
+  std::vector<std::pair<RequiredServicePort*, ProvidedServicePort*>> service_links_;
+  std::string name_;
+  std::unique_ptr<Component> probes_;
+  bool started_ = false;
+  std::vector<std::size_t> start_order_;  // indexes into nodes_, in the order started
+};
+
+}  // namespace polyport

@@ -1,0 +1,118 @@
+// Periodic execution contexts: one thread that wakes at absolute deadlines
+// (clock_nanosleep TIMER_ABSTIME on CLOCK_MONOTONIC, so the period does not drift) and runs
+// its components in order. A context records how late each wake-up was (jitter), how long
+// each cycle took, and overruns (a cycle that ended past the next deadline; missed periods
+// are skipped, not run back-to-back).
+//
+// Lifecycle commands for a component that belongs to a running context are executed by the
+// context's thread between cycles, so every hook of a component runs on one thread.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "polyport/base/clock.hpp"
+#include "polyport/runtime/histogram.hpp"
+#include "polyport/runtime/lifecycle.hpp"
+#include "polyport/profile/profile.hpp"
+
+namespace polyport {
+
+class ProvidedServicePort;
+
+struct ExecutionSettings {
+  std::string name;
+  Nanos period{10'000'000};
+  SchedPolicy policy = SchedPolicy::other;
+  int priority = 0;
+  std::optional<int> cpu;
+};
+
+class ExecutionContext {
+ public:
+  static constexpr Nanos kMinPeriod{1'000};  // 1 us
+  explicit ExecutionContext(ExecutionSettings settings);
+  ExecutionContext(const ExecutionContext&) = delete;
+  ExecutionContext& operator=(const ExecutionContext&) = delete;
+  ~ExecutionContext();
+
+  // Control thread, before start(): a component and the provided ports whose queued calls
+  // this context serves before running the component each cycle.
+  void add(Lifecycle& lifecycle, std::vector<ProvidedServicePort*> served = {});
+
+  // Starts the thread. Real-time priority and CPU pinning are applied when asked for; when
+  // the system refuses them, `warnings` says so and the context runs without them.
+  void start(std::vector<std::string>& warnings);
+  void stop();  // joins the thread; queued calls are cancelled
+  bool running() const noexcept { return running_.load(std::memory_order_acquire); }
+
+  // Applies a lifecycle command on the context's thread (or inline when it is not running)
+  // and waits for the result.
+  ReturnCode command(Lifecycle& lifecycle, LifecycleCommand command);
+
+  const ExecutionSettings& settings() const noexcept { return settings_; }
+  const std::vector<Lifecycle*>& members() const noexcept { return members_; }
+  std::uint64_t cycles() const noexcept { return cycles_.load(std::memory_order_relaxed); }
+  std::uint64_t overruns() const noexcept { return overruns_.load(std::memory_order_relaxed); }
+  std::uint64_t missed_periods() const noexcept { return missed_.load(std::memory_order_relaxed); }
+  const LatencyHistogram& wake_jitter() const noexcept { return jitter_; }   // wake - deadline
+  const LatencyHistogram& cycle_time() const noexcept { return cycle_time_; }
+  bool realtime_applied() const noexcept { return realtime_applied_; }
+  bool pinned() const noexcept { return pinned_; }
+
+ private:
+  void run();
+  void apply_pending_command();
+  void wake() noexcept;
+  void sleep_until(MonoTime deadline);
+
+  ExecutionSettings settings_;
+  std::vector<Lifecycle*> members_;
+  std::vector<ProvidedServicePort*> served_;
+  std::thread thread_;
+  std::atomic<bool> running_{false};
+  std::atomic<bool> stop_requested_{false};
+  std::atomic<std::uint32_t> wake_word_{0};  // a futex: bumped to wake the sleeping thread
+
+  // One pending command at a time, handed over under the mutex (control path only).
+  std::mutex command_mutex_;
+  std::condition_variable command_done_;
+  std::atomic<bool> command_pending_{false};
+  Lifecycle* command_target_ = nullptr;
+  LifecycleCommand command_ = LifecycleCommand::initialize;
+  ReturnCode command_result_{};
+  bool command_finished_ = false;
+
+  std::atomic<std::uint64_t> cycles_{0};
+  std::atomic<std::uint64_t> overruns_{0};
+  std::atomic<std::uint64_t> missed_{0};
+  LatencyHistogram jitter_;
+  LatencyHistogram cycle_time_;
+  bool realtime_applied_ = false;
+  bool pinned_ = false;
+};
+
+// Owns every execution context of an application. Periodic components with the same period,
+// scheduling policy, priority and CPU share one context (as OPRoS executors do), in the order
+// they were added; `periodic-exclusive` ones get their own.
+class ExecutionContextPool {
+ public:
+  ExecutionContext& shared(const ExecutionSettings& settings);
+  ExecutionContext& exclusive(const ExecutionSettings& settings);
+  void start_all(std::vector<std::string>& warnings);
+  void stop_all();
+  const std::vector<std::unique_ptr<ExecutionContext>>& contexts() const noexcept { return contexts_; }
+
+ private:
+  std::vector<std::unique_ptr<ExecutionContext>> contexts_;
+  std::vector<bool> exclusive_;
+};
+
+}  // namespace polyport

@@ -1,0 +1,32 @@
+#include "polyport/runtime/model.hpp"
+
+#include "polyport/runtime/service.hpp"
+#include "polyport/types/types.hpp"
+
+namespace polyport {
+
+std::vector<OperationInfo> operations_of(const PortSpec& spec, const TypeRegistry& types) {
+  std::vector<OperationInfo> out;
+  for (const OperationSpec& op : spec.operations) {
+    out.push_back(OperationInfo{op.name, op.request_type.empty() ? nullptr : types.find(op.request_type),
+                                op.reply_type.empty() ? nullptr : types.find(op.reply_type), op.oneway});
+  }
+  return out;
+}
+
+void ModelRegistry::add(std::unique_ptr<Model> model) { models_.push_back(std::move(model)); }
+
+Model* ModelRegistry::find(std::string_view name) const noexcept {
+  for (const auto& model : models_) {
+    if (model->name() == name) return model.get();
+  }
+  return nullptr;
+}
+
+std::vector<std::string> ModelRegistry::names() const {
+  std::vector<std::string> out;
+  for (const auto& model : models_) out.emplace_back(model->name());
+  return out;
+}
+
+}  // namespace polyport

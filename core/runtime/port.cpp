@@ -1,0 +1,93 @@
+// Ports and the writer's side of the data path. See port.hpp for who owns what and which
+// thread runs what.
+#include "polyport/runtime/port.hpp"
+
+#include <algorithm>
+
+#include "polyport/runtime/component.hpp"
+#include "polyport/runtime/connection.hpp"
+
+namespace polyport {
+
+Port::Port(Component& owner, std::string name, PortKind kind, PortDirection direction, const Type* type)
+    : owner_(owner), name_(std::move(name)), kind_(kind), direction_(direction), type_(type) {}
+
+Port::~Port() = default;
+
+std::string Port::full_name() const { return owner_.name() + "." + name_; }
+
+ConnectionSet::ConnectionSet() { publish({}); }
+
+void ConnectionSet::publish(const std::vector<Connection*>& items) {
+  auto list = std::make_unique<List>();
+  list->size = items.size();
+  list->items = std::make_unique<Connection*[]>(items.size() + 1);
+  std::copy(items.begin(), items.end(), list->items.get());
+  current_.store(list.get(), std::memory_order_release);
+  retained_.push_back(std::move(list));
+}
+
+void ConnectionSet::add(Connection& connection) {
+  std::vector<Connection*> items(current().begin(), current().end());
+  items.push_back(&connection);
+  publish(items);
+}
+
+void ConnectionSet::remove(Connection& connection) {
+  std::vector<Connection*> items(current().begin(), current().end());
+  items.erase(std::remove(items.begin(), items.end(), &connection), items.end());
+  publish(items);
+}
+
+DataOutPort::DataOutPort(Component& owner, std::string name, PortKind kind, const Type* type,
+                         std::uint32_t max_sample_bytes)
+    : Port(owner, std::move(name), kind, PortDirection::output, type), max_sample_bytes_(max_sample_bytes) {}
+
+Status DataOutPort::write(const void* data, std::uint32_t size, MonoTime t_source) noexcept {
+  written_.fetch_add(1, std::memory_order_relaxed);
+  const ConnectionSet::List& list = connections_.current();
+  if (list.size == 0) {
+    unconnected_.fetch_add(1, std::memory_order_relaxed);
+    return Status::not_connected;
+  }
+  const SampleMeta meta{size, mono_now(), t_source};
+  const auto* bytes = static_cast<const std::byte*>(data);
+  for (Connection* connection : list) connection->deliver(bytes, meta);
+  return Status::ok;
+}
+
+DataInPort::DataInPort(Component& owner, std::string name, PortKind kind, const Type* type,
+                       std::uint32_t max_sample_bytes, QueuePolicy policy, std::uint32_t depth)
+    : Port(owner, std::move(name), kind, PortDirection::input, type),
+      max_sample_bytes_(max_sample_bytes),
+      policy_(policy),
+      depth_(depth) {}
+
+Status DataInPort::read(void* dst, std::uint32_t capacity, SampleMeta* meta) noexcept {
+  const ConnectionSet::List& list = connections_.current();
+  if (list.size == 0) return Status::no_data;
+  SampleMeta local{};
+  SampleMeta& out = meta ? *meta : local;
+  auto* bytes = static_cast<std::byte*>(dst);
+  bool any_old = false;
+  // Round robin so that one busy connection cannot starve the others of a queue port.
+  for (std::size_t i = 0; i < list.size; ++i) {
+    const std::size_t index = (next_ + i) % list.size;
+    switch (list.items[index]->take(bytes, capacity, out)) {
+      case PopResult::new_data:
+        next_ = index + 1;
+        return Status::ok;
+      case PopResult::old_data:
+        any_old = true;
+        break;
+      case PopResult::too_small:
+        return Status::bad_size;
+      case PopResult::no_data:
+        break;
+    }
+  }
+  // With several `data` connections, old_data leaves the value of the last one with data.
+  return any_old ? Status::old_data : Status::no_data;
+}
+
+}  // namespace polyport
