@@ -70,9 +70,10 @@ std::vector<std::filesystem::path> library_path(const Options& options) {
 }
 
 // Loads every profile and builds the engine; prints every problem. False on any error.
-bool load(const Options& options, Engine& engine, TypeRegistry& types) {
+bool load(const Options& options, const ModelRegistry& models, Engine& engine, TypeRegistry& types) {
   Diagnostics diagnostics;
   LoadOptions load_options{library_path(options)};
+  load_options.models = &models;
   bool ok = true;
   for (const std::string& file : options.profiles) {
     std::optional<ApplicationProfile> profile = load_application_profile(file, types, load_options, diagnostics);
@@ -137,7 +138,7 @@ int run_check(const Options& options) {
   ModelRegistry models;
   daemon::register_models(models);
   Engine engine(models, types);
-  if (!load(options, engine, types)) return kExitProfile;
+  if (!load(options, models, engine, types)) return kExitProfile;
   nlohmann::json graph;
   engine.describe(graph);
   if (options.json) {
@@ -191,7 +192,7 @@ int run_daemon(const Options& options) {
   ModelRegistry models;
   daemon::register_models(models);
   Engine engine(models, types);
-  if (!load(options, engine, types)) {
+  if (!load(options, models, engine, types)) {
     spdlog::error("not running: the profile has problems");
     return kExitProfile;
   }

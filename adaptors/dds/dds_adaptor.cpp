@@ -45,8 +45,9 @@ std::unique_ptr<DdsAdaptor> DdsAdaptor::create(const Subcomponent& subcomponent,
                                                Diagnostics& diagnostics) {
   const ComponentProfile& profile = subcomponent.profile;
   auto adaptor = std::make_unique<DdsAdaptor>(subcomponent.name, profile.model);
-  adaptor->max_calls_in_flight_ = profile.dds_max_calls_in_flight;
-  adaptor->call_timeout_ns_ = profile.dds_call_timeout_ns;
+  adaptor->settings_ = dds_settings(profile);
+  adaptor->max_calls_in_flight_ = adaptor->settings_->max_calls_in_flight;
+  adaptor->call_timeout_ns_ = adaptor->settings_->call_timeout_ns;
   bool ok = true;
   for (const PortSpec& spec : profile.ports) {
     switch (spec.kind) {
@@ -90,10 +91,11 @@ bool DdsAdaptor::add_data_port(const PortSpec& spec, const TypeRegistry& types, 
   if (codec == nullptr) return false;
   const std::uint32_t max_bytes = std::min(codec->max_wire_size(type->size + kTailBytes), kMaxSampleBytes);
 
+  const PortSettings& port = settings_->port(spec.name);
   Topic topic;
-  topic.topic = spec.topic.empty() ? spec.name : spec.topic;
+  topic.topic = port.topic.empty() ? spec.name : port.topic;
   topic.type_name = dds_type_name(spec.data_type);
-  topic.qos = spec.qos;
+  topic.qos = port.qos;
   topic.max_size = max_bytes;
   if (spec.direction == PortDirection::output) {
     topic.out = &add_port<DataOutPort>(spec.name, spec.kind, type, max_bytes);
@@ -108,16 +110,17 @@ bool DdsAdaptor::add_data_port(const PortSpec& spec, const TypeRegistry& types, 
 }
 
 bool DdsAdaptor::add_service_port(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics) {
+  const PortSettings& port = settings_->port(spec.name);
   Service service;
-  service.base_topic = spec.topic.empty() ? spec.name : spec.topic;
-  service.qos = spec.qos;
+  service.base_topic = port.topic.empty() ? spec.name : port.topic;
+  service.qos = port.qos;
   bool ok = true;
   for (const OperationSpec& op : spec.operations) {
     Operation operation;
     operation.name = op.name;
     operation.oneway = op.oneway;
-    ok = rpc_layout(spec, op, false, types, diagnostics, operation.request) && ok;
-    if (!op.oneway) ok = rpc_layout(spec, op, true, types, diagnostics, operation.reply) && ok;
+    ok = rpc_layout(spec, service.base_topic, op, false, types, diagnostics, operation.request) && ok;
+    if (!op.oneway) ok = rpc_layout(spec, service.base_topic, op, true, types, diagnostics, operation.reply) && ok;
     service.operations.push_back(std::move(operation));
   }
   if (spec.operations.empty()) {
@@ -137,9 +140,11 @@ bool DdsAdaptor::add_service_port(const PortSpec& spec, const TypeRegistry& type
   return true;
 }
 
-bool DdsAdaptor::rpc_layout(const PortSpec& spec, const OperationSpec& op, bool reply, const TypeRegistry& types,
-                            Diagnostics& diagnostics, RpcLayout& layout) {
-  const std::string& wire_name = reply ? op.dds_reply_type : op.dds_request_type;
+bool DdsAdaptor::rpc_layout(const PortSpec& spec, const std::string& base_topic, const OperationSpec& op, bool reply,
+                            const TypeRegistry& types, Diagnostics& diagnostics, RpcLayout& layout) {
+  const OperationTypes* wire_types = settings_->port(spec.name).operation(op.name);
+  const std::string wire_name =
+      wire_types == nullptr ? std::string() : reply ? wire_types->reply_type : wire_types->request_type;
   const std::string& payload_name = reply ? op.reply_type : op.request_type;
   const std::string_view header_name = reply ? kReplyHeader : kRequestHeader;
   const std::string what = "operation '" + op.name + "' of port '" + spec.name + "': " +
@@ -190,7 +195,7 @@ bool DdsAdaptor::rpc_layout(const PortSpec& spec, const OperationSpec& op, bool 
 
   layout.type = wire;
   layout.type_name = dds_type_name(wire->name);
-  layout.topic = (spec.topic.empty() ? spec.name : spec.topic) + "/" + op.name + (reply ? "/reply" : "/request");
+  layout.topic = base_topic + "/" + op.name + (reply ? "/reply" : "/request");
   layout.codec = codec_for(*wire, spec, diagnostics);
   if (layout.codec == nullptr) return false;
   layout.max_size = std::min(layout.codec->max_wire_size(wire->size), kMaxSampleBytes);

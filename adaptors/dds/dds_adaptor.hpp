@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "dds_settings.hpp"
 #include "polyport/codecs/codec.hpp"
 #include "polyport/runtime/component.hpp"
 #include "polyport/base/diagnostics.hpp"
@@ -88,15 +89,17 @@ class DdsAdaptor final : public Component {
   const std::vector<Service>& services() const noexcept { return services_; }
   std::uint32_t max_calls_in_flight() const noexcept { return max_calls_in_flight_; }
   std::int64_t call_timeout_ns() const noexcept { return call_timeout_ns_; }
+  const DdsSettings& settings() const noexcept { return *settings_; }
 
  private:
   bool add_data_port(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics);
   bool add_service_port(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics);
   // Checks one request/reply struct against the convention and fills `layout`.
-  bool rpc_layout(const PortSpec& spec, const OperationSpec& operation, bool reply, const TypeRegistry& types,
-                  Diagnostics& diagnostics, RpcLayout& layout);
+  bool rpc_layout(const PortSpec& spec, const std::string& base_topic, const OperationSpec& operation, bool reply,
+                  const TypeRegistry& types, Diagnostics& diagnostics, RpcLayout& layout);
   const Codec* codec_for(const Type& type, const PortSpec& spec, Diagnostics& diagnostics);
 
+  std::shared_ptr<const DdsSettings> settings_;
   std::vector<Topic> topics_;
   std::vector<Service> services_;
   std::vector<std::unique_ptr<Codec>> codecs_;

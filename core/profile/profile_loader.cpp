@@ -32,7 +32,11 @@
 #include <pugixml.hpp>
 
 #include "polyport/base/diagnostics.hpp"
+#include "polyport/profile/model_section.hpp"
 #include "polyport/profile/profile.hpp"
+#include "polyport/profile/profile_element.hpp"
+#include "polyport/profile/profile_text.hpp"
+#include "xml_file.hpp"
 #include "polyport/types/types.hpp"
 
 namespace polyport {
@@ -50,155 +54,9 @@ constexpr int kMaxCpu = 1023;
 constexpr int kMinRtPriority = 1;
 constexpr int kMaxRtPriority = 99;
 
-// ---------------------------------------------------------------------------------------
-// Small text helpers
+using namespace text;
+using namespace detail;
 
-std::string_view trim(std::string_view text) {
-  constexpr std::string_view kSpace = " \t\r\n";
-  const auto first = text.find_first_not_of(kSpace);
-  if (first == std::string_view::npos) return {};
-  const auto last = text.find_last_not_of(kSpace);
-  return text.substr(first, last - first + 1);
-}
-
-std::string in_quotes(std::string_view text) { return "'" + std::string(text) + "'"; }
-
-std::string join(const std::vector<std::string>& items, std::string_view separator) {
-  std::string out;
-  for (const auto& item : items) {
-    if (!out.empty()) out += separator;
-    out += item;
-  }
-  return out;
-}
-
-// Integers as XML Schema writes them: optional sign, decimal digits, nothing else.
-template <class Int>
-std::optional<Int> parse_integer(std::string_view text) {
-  if (!text.empty() && text.front() == '+') text.remove_prefix(1);
-  if (text.empty() || text.front() == '+') return std::nullopt;
-  Int value{};
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (ec != std::errc{} || end != text.data() + text.size()) return std::nullopt;
-  return value;
-}
-
-// Decimals as xs:decimal writes them (no exponent, no inf/nan), so the XSD and the loader
-// accept the same spellings.
-std::optional<double> parse_decimal(std::string_view text) {
-  std::string_view digits = text;
-  if (!digits.empty() && (digits.front() == '+' || digits.front() == '-')) digits.remove_prefix(1);
-  bool seen_digit = false;
-  bool seen_point = false;
-  for (const char c : digits) {
-    if (c >= '0' && c <= '9') {
-      seen_digit = true;
-    } else if (c == '.' && !seen_point) {
-      seen_point = true;
-    } else {
-      return std::nullopt;
-    }
-  }
-  if (!seen_digit) return std::nullopt;
-  if (!text.empty() && text.front() == '+') text.remove_prefix(1);
-  double value = 0.0;
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (ec != std::errc{} || end != text.data() + text.size()) return std::nullopt;
-  return value;
-}
-
-// Numbers in mapping rules: a decimal with an optional exponent ("2", "-0.5", "1e-3"), the
-// grammar of the XSD's Number type; no inf/nan, nothing from_chars alone would also take.
-std::optional<double> parse_number(std::string_view text) {
-  std::size_t i = 0;
-  const auto digits = [&] {
-    const std::size_t start = i;
-    while (i < text.size() && text[i] >= '0' && text[i] <= '9') ++i;
-    return i - start;
-  };
-  if (i < text.size() && (text[i] == '+' || text[i] == '-')) ++i;
-  std::size_t mantissa = digits();
-  if (i < text.size() && text[i] == '.') {
-    ++i;
-    mantissa += digits();
-  }
-  if (mantissa == 0) return std::nullopt;
-  if (i < text.size() && (text[i] == 'e' || text[i] == 'E')) {
-    ++i;
-    if (i < text.size() && (text[i] == '+' || text[i] == '-')) ++i;
-    if (digits() == 0) return std::nullopt;
-  }
-  if (i != text.size()) return std::nullopt;
-  if (text.front() == '+') text.remove_prefix(1);
-  double value = 0.0;
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (ec != std::errc{} || end != text.data() + text.size() || !std::isfinite(value)) return std::nullopt;
-  return value;
-}
-
-// A list of numbers separated by blanks or commas ("1 0 0", "1, 0, 0"); the XSD's NumberList.
-// Returns the entries, or the first entry that is not a number in `bad`.
-std::optional<std::vector<double>> parse_numbers(std::string_view text, std::string& bad) {
-  std::vector<double> values;
-  std::size_t i = 0;
-  const auto is_blank = [&](std::size_t k) {
-    return text[k] == ' ' || text[k] == '\t' || text[k] == '\r' || text[k] == '\n';
-  };
-  const auto skip_blanks = [&] {
-    while (i < text.size() && is_blank(i)) ++i;
-  };
-  skip_blanks();
-  while (true) {
-    const std::size_t start = i;
-    while (i < text.size() && !is_blank(i) && text[i] != ',') ++i;
-    const std::string_view entry = text.substr(start, i - start);
-    const auto value = parse_number(entry);
-    if (!value) {
-      bad = std::string(entry);
-      return std::nullopt;
-    }
-    values.push_back(*value);
-    skip_blanks();
-    if (i >= text.size()) break;
-    if (text[i] == ',') {
-      ++i;
-      skip_blanks();
-    }
-  }
-  return values;
-}
-
-fs::path absolute_path(const fs::path& path) {
-  std::error_code ec;
-  fs::path canonical = fs::weakly_canonical(path, ec);
-  if (ec) canonical = fs::absolute(path, ec).lexically_normal();
-  return canonical;
-}
-
-// A token with the spellings that mean it, so the error message can list what is accepted.
-template <class Enum>
-struct Spelling {
-  std::string_view text;
-  Enum value;
-};
-
-template <class Enum, std::size_t N>
-std::optional<Enum> lookup(const Spelling<Enum> (&table)[N], std::string_view text) {
-  for (const auto& entry : table) {
-    if (entry.text == text) return entry.value;
-  }
-  return std::nullopt;
-}
-
-template <class Enum, std::size_t N>
-std::string accepted(const Spelling<Enum> (&table)[N]) {
-  std::string out;
-  for (const auto& entry : table) {
-    if (!out.empty()) out += ", ";
-    out += entry.text;
-  }
-  return out;
-}
 
 // Case-sensitive on purpose: the XSD's enumerations are, and both must accept the same files.
 constexpr Spelling<QueuePolicy> kQueuePolicies[] = {
@@ -241,12 +99,6 @@ constexpr Spelling<PortDirection> kServiceUsages[] = {
     {"required", PortDirection::required},
     {"provided", PortDirection::provided},
 };
-constexpr Spelling<bool> kBooleans[] = {
-    {"true", true},
-    {"false", false},
-    {"1", true},
-    {"0", false},
-};
 
 std::string_view sched_policy_name(SchedPolicy policy) {
   switch (policy) {
@@ -271,321 +123,6 @@ std::string direction_noun(PortDirection direction) {
   return std::string(vowel ? "an " : "a ") + std::string(to_string(direction)) + " port";
 }
 
-// ---------------------------------------------------------------------------------------
-// One XML file: its bytes, the pugixml tree and a table of line starts, so every node and
-// attribute can be reported as line:col in the file the user edits.
-
-class XmlFile {
- public:
-  // Reads and parses `file`. `what` names the file in messages ("component profile");
-  // `referenced_at` is where a missing file is reported (the referencing element).
-  bool load(const fs::path& file, std::string_view what, const SourceLocation& referenced_at,
-            const std::string& referenced_path, Diagnostics& diagnostics) {
-    file_ = file.string();
-    diagnostics_ = &diagnostics;
-    std::error_code ec;
-    if (!fs::exists(file, ec)) {
-      diagnostics.error(referenced_at, referenced_path,
-                        std::string(what) + " " + in_quotes(file_) + " not found");
-      return false;
-    }
-    std::ifstream in(file, std::ios::binary);
-    std::ostringstream bytes;
-    if (in) bytes << in.rdbuf();
-    if (!in || fs::is_directory(file, ec)) {
-      diagnostics.error(referenced_at, referenced_path,
-                        "cannot read " + std::string(what) + " " + in_quotes(file_));
-      return false;
-    }
-    text_ = std::move(bytes).str();
-    line_starts_.assign(1, 0);
-    for (std::size_t i = 0; i < text_.size(); ++i) {
-      if (text_[i] == '\n') line_starts_.push_back(i + 1);
-    }
-    // UTF-8 only: pugixml reports offsets into the buffer it parsed, and a converted
-    // (UTF-16) buffer would make every reported column wrong.
-    const pugi::xml_parse_result result =
-        doc_.load_buffer(text_.data(), text_.size(), pugi::parse_default, pugi::encoding_utf8);
-    if (!result) {
-      diagnostics.error(at_offset(result.offset), "",
-                        std::string("XML syntax error: ") + result.description());
-      return false;
-    }
-    return true;
-  }
-
-  pugi::xml_node root() const { return doc_.document_element(); }
-  const std::string& name() const { return file_; }
-  Diagnostics& diagnostics() const { return *diagnostics_; }
-
-  SourceLocation at_offset(std::ptrdiff_t offset) const {
-    SourceLocation where{file_, 0, 0};
-    if (offset < 0 || line_starts_.empty()) return where;
-    const auto position = std::min(static_cast<std::size_t>(offset), text_.size());
-    const auto next = std::upper_bound(line_starts_.begin(), line_starts_.end(), position);
-    const auto line_index = static_cast<std::size_t>(next - line_starts_.begin()) - 1;
-    std::size_t start = line_starts_[line_index];
-    if (line_index == 0 && text_.compare(0, 3, "\xEF\xBB\xBF") == 0 && position >= 3) start = 3;
-    // Columns count characters, not bytes: skip UTF-8 continuation bytes.
-    std::uint32_t column = 1;
-    for (std::size_t i = start; i < position; ++i) {
-      if ((static_cast<unsigned char>(text_[i]) & 0xC0) != 0x80) ++column;
-    }
-    where.line = static_cast<std::uint32_t>(line_index + 1);
-    where.column = column;
-    return where;
-  }
-
-  // The element's `<`.
-  SourceLocation at(pugi::xml_node element) const {
-    const std::ptrdiff_t offset = element.offset_debug();
-    return at_offset(offset > 0 ? offset - 1 : offset);
-  }
-
-  // The first non-blank character of the element's text, or the element when it has none.
-  SourceLocation at_text(pugi::xml_node element) const {
-    for (pugi::xml_node child = element.first_child(); child; child = child.next_sibling()) {
-      if (child.type() != pugi::node_pcdata && child.type() != pugi::node_cdata) continue;
-      auto offset = static_cast<std::size_t>(child.offset_debug());
-      while (offset < text_.size() && (text_[offset] == ' ' || text_[offset] == '\t' ||
-                                       text_[offset] == '\r' || text_[offset] == '\n')) {
-        ++offset;
-      }
-      return at_offset(static_cast<std::ptrdiff_t>(offset));
-    }
-    return at(element);
-  }
-
-  // The first character of the attribute's value, or of its name when `at_name` (pugixml
-  // keeps no offsets for attributes, so the start tag is scanned again from the element's name).
-  SourceLocation at_attribute(pugi::xml_node element, std::string_view attribute,
-                              bool at_name = false) const {
-    std::ptrdiff_t offset = element.offset_debug();
-    if (offset < 0) return at(element);
-    auto i = static_cast<std::size_t>(offset);
-    const auto is_space = [this](std::size_t k) {
-      return text_[k] == ' ' || text_[k] == '\t' || text_[k] == '\r' || text_[k] == '\n';
-    };
-    const auto is_name_end = [this, &is_space](std::size_t k) {
-      return is_space(k) || text_[k] == '=' || text_[k] == '>' || text_[k] == '/';
-    };
-    while (i < text_.size() && !is_name_end(i)) ++i;  // the element's name
-    while (i < text_.size()) {
-      while (i < text_.size() && is_space(i)) ++i;
-      if (i >= text_.size() || text_[i] == '>' || text_[i] == '/') break;
-      const std::size_t name_start = i;
-      while (i < text_.size() && !is_name_end(i)) ++i;
-      const std::string_view name(text_.data() + name_start, i - name_start);
-      while (i < text_.size() && is_space(i)) ++i;
-      if (i >= text_.size() || text_[i] != '=') break;
-      ++i;
-      while (i < text_.size() && is_space(i)) ++i;
-      if (i >= text_.size() || (text_[i] != '"' && text_[i] != '\'')) break;
-      const char quote = text_[i++];
-      const std::size_t value_start = i;
-      while (i < text_.size() && text_[i] != quote) ++i;
-      if (name == attribute) {
-        return at_offset(static_cast<std::ptrdiff_t>(at_name ? name_start : value_start));
-      }
-      ++i;
-    }
-    return at(element);
-  }
-
- private:
-  std::string file_;
-  std::string text_;
-  std::vector<std::size_t> line_starts_;
-  pugi::xml_document doc_;
-  Diagnostics* diagnostics_ = nullptr;
-};
-
-std::string element_path(pugi::xml_node element) {
-  std::vector<std::string> parts;
-  for (pugi::xml_node node = element; node && node.type() == pugi::node_element;
-       node = node.parent()) {
-    std::string part = node.name();
-    const pugi::xml_node parent = node.parent();
-    int count = 0;
-    int index = 0;
-    for (pugi::xml_node sibling = parent.child(node.name()); sibling;
-         sibling = sibling.next_sibling(node.name())) {
-      ++count;
-      if (sibling == node) index = count;
-    }
-    if (count > 1) part += "[" + std::to_string(index) + "]";
-    parts.push_back(std::move(part));
-  }
-  std::string path;
-  for (auto it = parts.rbegin(); it != parts.rend(); ++it) path += "/" + *it;
-  return path;
-}
-
-std::string attribute_path(pugi::xml_node element, std::string_view attribute) {
-  return element_path(element) + "/@" + std::string(attribute);
-}
-
-// Reporting helpers bound to one file.
-class Reporter {
- public:
-  explicit Reporter(const XmlFile& xml) : xml_(xml) {}
-
-  const XmlFile& xml() const { return xml_; }
-
-  void error(pugi::xml_node element, std::string message) const {
-    xml_.diagnostics().error(xml_.at(element), element_path(element), std::move(message));
-  }
-  void warning(pugi::xml_node element, std::string message) const {
-    xml_.diagnostics().warning(xml_.at(element), element_path(element), std::move(message));
-  }
-  void error_text(pugi::xml_node element, std::string message) const {
-    xml_.diagnostics().error(xml_.at_text(element), element_path(element), std::move(message));
-  }
-  void warning_text(pugi::xml_node element, std::string message) const {
-    xml_.diagnostics().warning(xml_.at_text(element), element_path(element), std::move(message));
-  }
-  void error_attribute(pugi::xml_node element, std::string_view attribute,
-                       std::string message) const {
-    xml_.diagnostics().error(xml_.at_attribute(element, attribute),
-                             attribute_path(element, attribute), std::move(message));
-  }
-  // Points at the attribute's name: for attributes that should not be there at all.
-  void warning_attribute(pugi::xml_node element, std::string_view attribute,
-                         std::string message) const {
-    xml_.diagnostics().warning(xml_.at_attribute(element, attribute, true),
-                               attribute_path(element, attribute), std::move(message));
-  }
-
- private:
-  const XmlFile& xml_;
-};
-
-// ---------------------------------------------------------------------------------------
-// Child scanning: each element's accepted children (with their aliases) are one table, so
-// unknown elements (typos) warn and repeated single elements are errors in one place.
-
-struct ChildRule {
-  ChildRule(std::string_view what, std::vector<std::string_view> names, bool may_repeat = false,
-            std::vector<std::string_view> attribute_names = {})
-      : key(what),
-        tags(std::move(names)),
-        repeated(may_repeat),
-        attributes(std::move(attribute_names)) {}
-
-  std::string_view key;                // what the loader calls it; empty: ignored
-  std::vector<std::string_view> tags;  // the accepted element names (aliases)
-  bool repeated = false;
-  std::vector<std::string_view> attributes;  // accepted attributes (others warn)
-};
-
-class Children {
- public:
-  pugi::xml_node one(std::string_view key) const {
-    const auto it = by_key_.find(key);
-    return it == by_key_.end() || it->second.empty() ? pugi::xml_node() : it->second.front();
-  }
-  const std::vector<pugi::xml_node>& all(std::string_view key) const {
-    static const std::vector<pugi::xml_node> kNone;
-    const auto it = by_key_.find(key);
-    return it == by_key_.end() ? kNone : it->second;
-  }
-  void add(std::string_view key, pugi::xml_node node) { by_key_[key].push_back(node); }
-
- private:
-  std::map<std::string_view, std::vector<pugi::xml_node>, std::less<>> by_key_;
-};
-
-void check_attributes(const Reporter& report, pugi::xml_node element,
-                      const std::vector<std::string_view>& accepted_names, bool is_root) {
-  for (pugi::xml_attribute attribute : element.attributes()) {
-    const std::string_view name = attribute.name();
-    // Editors attach the schema with xmlns / xsi attributes on the root; they are not ours.
-    if (is_root && (name == "xmlns" || name.starts_with("xmlns:") || name.starts_with("xsi:"))) {
-      continue;
-    }
-    if (std::find(accepted_names.begin(), accepted_names.end(), name) != accepted_names.end()) {
-      continue;
-    }
-    report.warning_attribute(element, name, "unknown attribute '" + std::string(name) + "'");
-  }
-}
-
-Children scan(const Reporter& report, pugi::xml_node parent, const std::vector<ChildRule>& rules) {
-  Children children;
-  for (pugi::xml_node child : parent.children()) {
-    if (child.type() != pugi::node_element) continue;
-    const std::string_view tag = child.name();
-    const ChildRule* match = nullptr;
-    for (const auto& rule : rules) {
-      if (std::find(rule.tags.begin(), rule.tags.end(), tag) != rule.tags.end()) {
-        match = &rule;
-        break;
-      }
-    }
-    if (match == nullptr) {
-      report.warning(child, "unknown element <" + std::string(tag) + ">");
-      continue;
-    }
-    if (match->key.empty()) continue;  // accepted for OPRoS compatibility, not used
-    if (!match->repeated) {
-      const pugi::xml_node first = children.one(match->key);
-      if (first) {
-        const auto line = std::to_string(report.xml().at(first).line);
-        if (std::string_view(first.name()) == tag) {
-          report.error(child,
-                       "duplicate <" + std::string(tag) + ">: already given at line " + line);
-        } else {
-          report.error(child, "duplicate <" + std::string(tag) + ">: already given as <" +
-                                  first.name() + "> at line " + line);
-        }
-        continue;
-      }
-    }
-    check_attributes(report, child, match->attributes, false);
-    children.add(match->key, child);
-  }
-  return children;
-}
-
-std::string text_of(pugi::xml_node element) { return std::string(trim(element.text().get())); }
-
-// The text of a child the profile must have; reports it missing or empty.
-std::optional<std::string> required_text(const Reporter& report, pugi::xml_node parent,
-                                         const Children& children, std::string_view key,
-                                         std::string_view tag) {
-  const pugi::xml_node element = children.one(key);
-  if (!element) {
-    report.error(parent, "missing <" + std::string(tag) + ">");
-    return std::nullopt;
-  }
-  std::string text = text_of(element);
-  if (text.empty()) {
-    report.error(element, "empty <" + std::string(element.name()) + ">");
-    return std::nullopt;
-  }
-  return text;
-}
-
-std::optional<std::string> optional_text(const Children& children, std::string_view key) {
-  const pugi::xml_node element = children.one(key);
-  if (!element) return std::nullopt;
-  return text_of(element);
-}
-
-// Reads an enumerated element's text; `what` names it in the message, `context` follows
-// the bad value (" for a data port").
-template <class Enum, std::size_t N>
-std::optional<Enum> enum_text(const Reporter& report, pugi::xml_node element,
-                              const Spelling<Enum> (&table)[N], std::string_view what,
-                              std::string_view context = {}) {
-  const std::string text = text_of(element);
-  const auto value = lookup(table, text);
-  if (!value) {
-    report.error_text(element, "bad " + std::string(what) + " " + in_quotes(text) +
-                                   std::string(context) + " (accepted: " + accepted(table) + ")");
-  }
-  return value;
-}
 
 std::optional<std::uint32_t> depth_value(std::string_view text) {
   const auto value = parse_integer<std::uint32_t>(text);
@@ -641,51 +178,10 @@ const std::vector<ChildRule> kComponentRules = {
     {"model", {"model"}},
     {"execution_environment", {"execution_environment"}},
     {"execution_semantics", {"execution_semantics"}},
-    {"dds", {"dds"}},
     {"types", {"types"}},
     {"properties", {"properties"}},
     {"ports", {"ports"}},
 };
-const std::vector<ChildRule> kDdsRules = {
-    {"domain", {"domain"}},
-    {"config", {"config"}},
-    {"qos", {"qos"}},
-    {"max_calls_in_flight", {"max_calls_in_flight"}},
-    {"call_timeout", {"call_timeout_ms"}},
-};
-const std::vector<ChildRule> kQosRules = {
-    {"reliability", {"reliability"}},
-    {"durability", {"durability"}},
-    {"history", {"history"}},
-    {"depth", {"depth"}},
-    {"deadline", {"deadline_ms"}},
-    {"lifespan", {"lifespan_ms"}},
-    {"liveliness", {"liveliness"}},
-    {"lease", {"lease_ms"}},
-    {"partition", {"partition"}, true},
-};
-constexpr Spelling<DdsQos::Reliability> kReliabilities[] = {
-    {"reliable", DdsQos::Reliability::reliable},
-    {"best_effort", DdsQos::Reliability::best_effort},
-};
-constexpr Spelling<DdsQos::Durability> kDurabilities[] = {
-    {"volatile", DdsQos::Durability::volatile_},
-    {"transient_local", DdsQos::Durability::transient_local},
-};
-constexpr Spelling<DdsQos::History> kHistories[] = {
-    {"keep_last", DdsQos::History::keep_last},
-    {"keep_all", DdsQos::History::keep_all},
-};
-constexpr Spelling<DdsQos::Liveliness> kLivelinesses[] = {
-    {"automatic", DdsQos::Liveliness::automatic},
-    {"manual_by_participant", DdsQos::Liveliness::manual_by_participant},
-    {"manual_by_topic", DdsQos::Liveliness::manual_by_topic},
-};
-// Calls in flight per DDS service port: enough for any sane client, bounded for the tables.
-constexpr std::uint32_t kMaxDdsCallsInFlight = 4096;
-// DDS domain ids: 0..232 (the RTPS port mapping with its default parameters).
-constexpr std::uint32_t kMaxDdsDomain = 232;
-bool is_dds_model(std::string_view model) { return model == "cyclonedds" || model == "fastdds"; }
 const std::vector<ChildRule> kEnvironmentRules = {
     {"library_type", {"library_type"}},
     {"library_name", {"library_name"}},
@@ -715,40 +211,89 @@ const std::vector<ChildRule> kDataPortRules = {
     {"policy", {"queueing_policy", "policy"}},
     {"depth", {"queue_size", "queueing_size"}},
     {"policy_param", {"policy_param"}, true, {"name"}},
-    {"topic", {"topic"}},
-    {"qos", {"qos"}},
 };
 const std::vector<ChildRule> kServicePortRules = {
     {"name", {"name"}},
     {"", {"description", "reference"}},
     {"type", {"type"}},
     {"usage", {"usage"}},
-    {"topic", {"topic"}},
-    {"qos", {"qos"}},
-    {"operation", {"operation"}, true, {"name", "request", "reply", "oneway", "dds_request", "dds_reply"}},
+    {"operation", {"operation"}, true, {"name", "request", "reply", "oneway"}},
 };
 
 // ---------------------------------------------------------------------------------------
 // The loader
 
 // A name that must resolve in the type registry once every type file is loaded.
-struct TypeUse {
-  std::string name;
-  SourceLocation where;
-  std::string path;
-};
-
 struct LoadedComponent {
   bool readable = false;  // the file was parsed and had the right root
   ComponentProfile profile;
   std::vector<TypeUse> type_uses;
   std::set<std::string, std::less<>> incomplete_ports;  // kind/direction unknown: not checked
+  // The readers of model elements: the component's own model's, and those of other models
+  // whose elements it carries (read for their problems, then dropped).
+  std::unique_ptr<ComponentSectionReader> own_reader;
+  std::map<const ModelSection*, std::unique_ptr<ComponentSectionReader>> foreign_readers;
 };
+
+// The names every known model owns, added to core's own child tables.
+struct ModelRules {
+  std::vector<ChildRule> component;
+  std::vector<ChildRule> data_port;
+  std::vector<ChildRule> service_port;
+  std::vector<std::pair<std::string_view, const ModelSection*>> sections;
+
+  explicit ModelRules(const ModelSections* models)
+      : component(kComponentRules), data_port(kDataPortRules), service_port(kServicePortRules) {
+    if (models != nullptr) sections = models->sections();
+    std::set<std::string_view> component_tags;
+    std::set<std::string_view> port_tags;
+    std::set<std::string_view> attributes;
+    const std::size_t operation = service_port.size() - 1;  // {"operation", ...}
+    for (const auto& [model, section] : sections) {
+      const ModelVocabulary& vocabulary = section->vocabulary();
+      for (const std::string_view tag : vocabulary.component_elements) {
+        if (component_tags.insert(tag).second) component.push_back(ChildRule(tag, {tag}));
+      }
+      for (const std::string_view tag : vocabulary.port_elements) {
+        if (!port_tags.insert(tag).second) continue;
+        data_port.push_back(ChildRule(tag, {tag}));
+        service_port.push_back(ChildRule(tag, {tag}));
+      }
+      for (const std::string_view attribute : vocabulary.operation_attributes) {
+        if (attributes.insert(attribute).second) service_port[operation].attributes.push_back(attribute);
+      }
+    }
+  }
+
+  const ModelSection* section_of(std::string_view model) const {
+    for (const auto& [name, section] : sections) {
+      if (name == model) return section;
+    }
+    return nullptr;
+  }
+
+  // The model that reads `name` (a member of `list` of its vocabulary): the first that has it.
+  template <class List>
+  const ModelSection* owner_of(std::string_view name, List ModelVocabulary::*list) const {
+    for (const auto& [model, section] : sections) {
+      const auto& names = section->vocabulary().*list;
+      if (std::find(names.begin(), names.end(), name) != names.end()) return section;
+    }
+    return nullptr;
+  }
+};
+
+bool owns(const ModelSection* section, std::string_view name,
+          std::vector<std::string_view> ModelVocabulary::*list) {
+  if (section == nullptr) return false;
+  const auto& names = section->vocabulary().*list;
+  return std::find(names.begin(), names.end(), name) != names.end();
+}
 
 class Loader {
  public:
   Loader(TypeRegistry& types, const LoadOptions& options, Diagnostics& diagnostics)
-      : types_(types), options_(options), diagnostics_(diagnostics) {}
+      : types_(types), options_(options), diagnostics_(diagnostics), rules_(options.models) {}
 
   std::optional<ApplicationProfile> run(const fs::path& requested) {
     const std::size_t errors_before = diagnostics_.error_count();
@@ -1208,7 +753,7 @@ class Loader {
     ComponentProfile& profile = component.profile;
     profile.where = report.xml().at(root);
     profile.execution.where = profile.where;
-    const Children children = scan(report, root, kComponentRules);
+    const Children children = scan(report, root, rules_.component);
     if (auto name = required_text(report, root, children, "name", "name")) profile.name = *name;
     if (const auto model = children.one("model")) {
       const std::string text = text_of(model);
@@ -1233,12 +778,8 @@ class Loader {
     if (const auto semantics = children.one("execution_semantics")) {
       read_execution(report, semantics, profile);
     }
-    if (const auto dds = children.one("dds")) {
-      if (!is_dds_model(profile.model)) {
-        report.warning(dds, "<dds> is ignored by model " + in_quotes(profile.model));
-      }
-      read_dds(report, dds, profile);
-    }
+    if (const ModelSection* own = rules_.section_of(profile.model)) component.own_reader = own->reader(profile.model);
+    read_model_elements(report, children, component);
     if (const auto types = children.one("types")) {
       read_type_files(report, types, profile.type_files);
     }
@@ -1246,107 +787,91 @@ class Loader {
       read_properties(report, properties, profile);
     }
     if (const auto ports = children.one("ports")) read_ports(report, ports, component);
+    if (component.own_reader) profile.model_settings = component.own_reader->finish();
+    component.foreign_readers.clear();
   }
 
-  void read_dds(const Reporter& report, pugi::xml_node dds, ComponentProfile& profile) {
-    profile.dds_where = report.xml().at(dds);
-    const Children children = scan(report, dds, kDdsRules);
-    if (const auto domain = children.one("domain")) {
-      const std::string text = text_of(domain);
-      const auto value = parse_integer<std::uint32_t>(text);
-      if (!value || *value > kMaxDdsDomain) {
-        report.error_text(domain, "bad DDS domain " + in_quotes(text) + ": expected an integer from 0 to " +
-                                      std::to_string(kMaxDdsDomain));
-      } else {
-        profile.dds_domain = *value;
-      }
-    }
-    if (const auto config = children.one("config")) {
-      const std::string text = text_of(config);
-      if (text.empty()) {
-        profile.dds_config = fs::path();  // the SDK's own defaults
-      } else {
-        const fs::path file = absolute_path(fs::path(report.xml().name()).parent_path() / text);
-        profile.dds_config = file;
-        std::error_code ec;
-        if (!fs::is_regular_file(file, ec)) {
-          report.error_text(config, "DDS configuration file " + in_quotes(file.string()) + " not found");
+  // -- model elements --------------------------------------------------------------------
+
+  // The reader of another model's elements on this component, made on first use.
+  ComponentSectionReader& foreign_reader(LoadedComponent& component, const ModelSection* section) {
+    auto& reader = component.foreign_readers[section];
+    if (!reader) {
+      for (const auto& [model, candidate] : rules_.sections) {
+        if (candidate == section) {
+          reader = section->reader(model);
+          break;
         }
       }
     }
-    if (const auto qos = children.one("qos")) read_qos(report, qos, profile.dds_qos);
-    if (const auto cap = children.one("max_calls_in_flight")) {
-      const std::string text = text_of(cap);
-      const auto value = parse_integer<std::uint32_t>(text);
-      if (!value || *value == 0 || *value > kMaxDdsCallsInFlight) {
-        report.error_text(cap, "bad max_calls_in_flight " + in_quotes(text) + ": expected an integer from 1 to " +
-                                   std::to_string(kMaxDdsCallsInFlight));
-      } else {
-        profile.dds_max_calls_in_flight = *value;
+    return *reader;
+  }
+
+  // The component-level elements of every model: the own model reads its own; another
+  // model's are ignored with a warning, after that model has checked them.
+  void read_model_elements(const Reporter& report, const Children& children, LoadedComponent& component) {
+    const std::string& model = component.profile.model;
+    const ModelSection* own = rules_.section_of(model);
+    for (const ChildRule& rule : rules_.component) {
+      const pugi::xml_node node = children.one(rule.key);
+      if (!node || !rules_.owner_of(rule.key, &ModelVocabulary::component_elements)) continue;
+      const ProfileElement element(report.xml(), node.internal_object());
+      if (owns(own, rule.key, &ModelVocabulary::component_elements)) {
+        component.own_reader->read_component_element(element);
+        continue;
       }
-    }
-    if (const auto timeout = children.one("call_timeout")) {
-      if (const auto ns = duration_ns(report, timeout, "call_timeout_ms"); ns && *ns > 0) {
-        profile.dds_call_timeout_ns = *ns;
-      } else if (ns) {
-        report.error_text(timeout, "call_timeout_ms must be greater than 0");
-      }
+      report.warning(node, "<" + std::string(rule.key) + "> is ignored by model " + in_quotes(model));
+      foreign_reader(component, rules_.owner_of(rule.key, &ModelVocabulary::component_elements))
+          .read_component_element(element);
     }
   }
 
-  // A duration in milliseconds (decimal), as nanoseconds; at most a day.
-  static std::optional<std::int64_t> duration_ns(const Reporter& report, pugi::xml_node element,
-                                                 std::string_view what) {
-    const std::string text = text_of(element);
-    const auto value = parse_decimal(text);
-    constexpr double kMaxMs = 86'400'000.0;
-    if (!value || *value < 0.0 || *value > kMaxMs) {
-      report.error_text(element, "bad " + std::string(what) + " " + in_quotes(text) +
-                                     ": expected a number of milliseconds from 0 to 86400000");
-      return std::nullopt;
+  // A port's model elements, the same way.
+  void read_model_port(const Reporter& report, const Children& fields, const PortSpec& port,
+                       LoadedComponent& component) {
+    const std::string& model = component.profile.model;
+    const ModelSection* own = rules_.section_of(model);
+    ProfileChildren own_elements;
+    std::map<const ModelSection*, ProfileChildren> foreign;
+    for (const ChildRule& rule : port.kind == PortKind::service ? rules_.service_port : rules_.data_port) {
+      const ModelSection* owner = rules_.owner_of(rule.key, &ModelVocabulary::port_elements);
+      const pugi::xml_node node = fields.one(rule.key);
+      if (owner == nullptr || !node) continue;
+      const ProfileElement element(report.xml(), node.internal_object());
+      if (owns(own, rule.key, &ModelVocabulary::port_elements)) {
+        own_elements.add(rule.key, element);
+        continue;
+      }
+      report.warning(node, "<" + std::string(rule.key) + "> is ignored by model " + in_quotes(model));
+      foreign[owner].add(rule.key, element);
     }
-    return static_cast<std::int64_t>(*value * 1e6 + 0.5);
+    if (component.own_reader) component.own_reader->read_port(port, own_elements);
+    for (const auto& [section, elements] : foreign) foreign_reader(component, section).read_port(port, elements);
   }
 
-  // <qos>: each child present overrides that field of `qos` (the component's defaults, or
-  // the model's).
-  void read_qos(const Reporter& report, pugi::xml_node element, DdsQos& qos) {
-    const Children children = scan(report, element, kQosRules);
-    if (const auto node = children.one("reliability")) {
-      if (auto value = enum_text(report, node, kReliabilities, "reliability")) qos.reliability = *value;
-    }
-    if (const auto node = children.one("durability")) {
-      if (auto value = enum_text(report, node, kDurabilities, "durability")) qos.durability = *value;
-    }
-    if (const auto node = children.one("history")) {
-      if (auto value = enum_text(report, node, kHistories, "history")) qos.history = *value;
-    }
-    if (const auto node = children.one("depth")) {
-      const std::string text = text_of(node);
-      const auto value = parse_integer<std::int32_t>(text);
-      if (!value || *value <= 0) {
-        report.error_text(node, "bad history depth " + in_quotes(text) + ": expected an integer from 1 to 2147483647");
-      } else {
-        qos.depth = *value;
+  // An operation's model attributes: the own model reads them; another model's are ignored
+  // with one warning that names them all.
+  void read_model_operation(const Reporter& report, pugi::xml_node element, const PortSpec& port,
+                            const OperationSpec& operation, LoadedComponent& component,
+                            std::vector<TypeUse>& uses) {
+    const std::string& model = component.profile.model;
+    const ModelSection* own = rules_.section_of(model);
+    for (const auto& [name, section] : rules_.sections) {
+      if (section == own) continue;
+      const auto& attributes = section->vocabulary().operation_attributes;
+      const bool present = std::any_of(attributes.begin(), attributes.end(), [&](std::string_view attribute) {
+        return static_cast<bool>(element.attribute(std::string(attribute).c_str())) &&
+               !owns(own, attribute, &ModelVocabulary::operation_attributes);
+      });
+      if (!present || section != rules_.owner_of(attributes.front(), &ModelVocabulary::operation_attributes)) {
+        continue;
       }
+      std::vector<std::string> names(attributes.begin(), attributes.end());
+      report.warning(element, join(names, " / ") + " are ignored by model " + in_quotes(model));
     }
-    if (const auto node = children.one("deadline")) {
-      if (const auto ns = duration_ns(report, node, "deadline_ms")) qos.deadline_ns = *ns > 0 ? ns : std::nullopt;
-    }
-    if (const auto node = children.one("lifespan")) {
-      if (const auto ns = duration_ns(report, node, "lifespan_ms")) qos.lifespan_ns = *ns > 0 ? ns : std::nullopt;
-    }
-    if (const auto node = children.one("liveliness")) {
-      if (auto value = enum_text(report, node, kLivelinesses, "liveliness")) qos.liveliness = *value;
-    }
-    if (const auto node = children.one("lease")) {
-      if (const auto ns = duration_ns(report, node, "lease_ms")) qos.lease_ns = *ns > 0 ? ns : std::nullopt;
-    }
-    if (!children.all("partition").empty()) qos.partitions.clear();  // a port's list replaces the component's
-    for (const pugi::xml_node node : children.all("partition")) qos.partitions.push_back(text_of(node));
-    if (qos.deadline_ns && qos.lifespan_ns && *qos.lifespan_ns < *qos.deadline_ns) {
-      // Legal in DDS, but samples then expire before the next is due: say so.
-      report.warning(element, "lifespan_ms is shorter than deadline_ms: readers may miss every deadline");
+    if (component.own_reader) {
+      component.own_reader->read_operation(port, operation, ProfileElement(report.xml(), element.internal_object()),
+                                           uses);
     }
   }
 
@@ -1520,8 +1045,9 @@ class Loader {
                                         : PortKind::data;
       bool complete = false;
       const Children fields =
-          scan(report, node, port.kind == PortKind::service ? kServicePortRules : kDataPortRules);
+          scan(report, node, port.kind == PortKind::service ? rules_.service_port : rules_.data_port);
       const auto name = required_text(report, node, fields, "name", "name");
+      if (name) port.name = *name;
       if (port.kind == PortKind::service) {
         complete = read_service_port(report, node, fields, port, component);
       } else {
@@ -1567,7 +1093,7 @@ class Loader {
       complete = false;
     }
 
-    read_dds_port(report, fields, port, component.profile);
+    read_model_port(report, fields, port, component);
 
     const pugi::xml_node policy = fields.one("policy");
     if (policy) {
@@ -1625,30 +1151,10 @@ class Loader {
     return complete;
   }
 
-  // <topic> and <qos> of a port (DDS models only).
-  void read_dds_port(const Reporter& report, const Children& fields, PortSpec& port,
-                     const ComponentProfile& profile) {
-    port.qos = profile.dds_qos;
-    const bool dds = is_dds_model(profile.model);
-    if (const auto topic = fields.one("topic")) {
-      port.topic = text_of(topic);
-      if (port.topic.empty()) {
-        report.error(topic, "empty <topic>");
-      } else if (!dds) {
-        report.warning(topic, "<topic> is ignored by model " + in_quotes(profile.model));
-      }
-    }
-    if (const auto qos = fields.one("qos")) {
-      if (!dds) report.warning(qos, "<qos> is ignored by model " + in_quotes(profile.model));
-      read_qos(report, qos, port.qos);
-    }
-  }
-
   bool read_service_port(const Reporter& report, pugi::xml_node node, const Children& fields,
                          PortSpec& port, LoadedComponent& component) {
     bool complete = true;
-    read_dds_port(report, fields, port, component.profile);
-    const bool dds = is_dds_model(component.profile.model);
+    read_model_port(report, fields, port, component);
     if (auto type = optional_text(fields, "type")) port.service_type = *type;
     if (const auto usage = required_text(report, node, fields, "usage", "usage")) {
       if (auto direction = enum_text(report, fields.one("usage"), kServiceUsages, "usage",
@@ -1680,33 +1186,15 @@ class Loader {
       if (operation.oneway && !operation.reply_type.empty()) {
         report.error_attribute(element, "reply", "a oneway operation has no reply");
       }
-      operation.dds_request_type = std::string(trim(element.attribute("dds_request").value()));
-      operation.dds_reply_type = std::string(trim(element.attribute("dds_reply").value()));
-      if (!dds && (element.attribute("dds_request") || element.attribute("dds_reply"))) {
-        report.warning(element, "dds_request / dds_reply are ignored by model " + in_quotes(component.profile.model));
-        operation.dds_request_type.clear();
-        operation.dds_reply_type.clear();
-      }
-      if (dds && operation.dds_request_type.empty()) {
-        report.error(element, "missing attribute 'dds_request': the struct a DDS application writes on the "
-                              "request topic (a polyport::rpc::RequestHeader, then the request)");
-      }
-      if (dds && !operation.oneway && operation.dds_reply_type.empty()) {
-        report.error(element, "missing attribute 'dds_reply': the struct a DDS application writes on the "
-                              "reply topic (a polyport::rpc::ReplyHeader, then the reply)");
-      }
-      if (dds && operation.oneway && !operation.dds_reply_type.empty()) {
-        report.error_attribute(element, "dds_reply", "a oneway operation has no reply");
-      }
-      for (const std::string_view attribute : {"request", "reply", "dds_request", "dds_reply"}) {
-        const std::string& type_name = attribute == "request"       ? operation.request_type
-                                       : attribute == "reply"       ? operation.reply_type
-                                       : attribute == "dds_request" ? operation.dds_request_type
-                                                                    : operation.dds_reply_type;
+      std::vector<TypeUse> model_uses;
+      read_model_operation(report, element, port, operation, component, model_uses);
+      for (const std::string_view attribute : {"request", "reply"}) {
+        const std::string& type_name = attribute == "request" ? operation.request_type : operation.reply_type;
         if (type_name.empty()) continue;
         component.type_uses.push_back({type_name, report.xml().at_attribute(element, attribute),
                                        attribute_path(element, attribute)});
       }
+      component.type_uses.insert(component.type_uses.end(), model_uses.begin(), model_uses.end());
       if (operation.name.empty()) {
         report.error(element, element.attribute("name") ? "empty attribute 'name'"
                                                         : "missing attribute 'name'");
@@ -1938,6 +1426,7 @@ class Loader {
   std::vector<const LoadedComponent*> load_order_;  // so diagnostics follow the profile
   std::vector<fs::path> pending_type_files_;
   std::vector<bool> mapping_readable_;  // per connection: its <mapping> read without errors
+  const ModelRules rules_;
 };
 
 }  // namespace

@@ -29,4 +29,12 @@ std::vector<std::string> ModelRegistry::names() const {
   return out;
 }
 
+std::vector<std::pair<std::string_view, const ModelSection*>> ModelRegistry::sections() const {
+  std::vector<std::pair<std::string_view, const ModelSection*>> out;
+  for (const auto& model : models_) {
+    if (const ModelSection* section = model->profile_section()) out.emplace_back(model->name(), section);
+  }
+  return out;
+}
+
 }  // namespace polyport

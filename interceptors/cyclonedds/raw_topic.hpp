@@ -24,7 +24,7 @@
 #include <string>
 
 #include "polyport/base/clock.hpp"
-#include "polyport/profile/profile.hpp"
+#include "dds_settings.hpp"
 #include "polyport/base/result.hpp"
 #include "polyport/base/status.hpp"
 

@@ -23,7 +23,7 @@
 #include <string_view>
 
 #include "polyport/base/clock.hpp"
-#include "polyport/profile/profile.hpp"
+#include "dds_settings.hpp"
 #include "polyport/base/result.hpp"
 #include "polyport/base/status.hpp"
 

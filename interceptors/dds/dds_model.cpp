@@ -8,27 +8,28 @@ namespace polyport::dds {
 std::optional<Proxy> DdsModel::create_proxy(const Subcomponent& sub, ModelContext& context,
                                              Diagnostics& diagnostics) {
   const ComponentProfile& profile = sub.profile;
-  const std::string config = profile.dds_config ? profile.dds_config->string() : default_config_;
-  const SourceLocation where = profile.dds_where.line != 0 ? profile.dds_where : profile.where;
+  const std::shared_ptr<const DdsSettings> settings = dds_settings(profile);
+  const std::string config = settings->config ? settings->config->string() : default_config_;
+  const SourceLocation where = settings->where.line != 0 ? settings->where : profile.where;
 
   // Ports first: a profile with bad ports does not join a domain.
   std::unique_ptr<DdsAdaptor> adaptor = DdsAdaptor::create(sub, context.types, diagnostics);
   if (!adaptor) return std::nullopt;
 
-  DomainEntry& entry = domains_[profile.dds_domain];
+  DomainEntry& entry = domains_[settings->domain];
   std::shared_ptr<Domain> domain = entry.domain.lock();
   if (domain && entry.config != config) {
     diagnostics.error(where, "/component_profile/dds/config",
-                      "DDS domain " + std::to_string(profile.dds_domain) + " of model '" + name_ +
+                      "DDS domain " + std::to_string(settings->domain) + " of model '" + name_ +
                           "' is already configured with '" + entry.config + "' in this process; '" + config +
                           "' cannot be used for it too");
     return std::nullopt;
   }
   if (!domain) {
-    auto created = factory_(profile.dds_domain, config);
+    auto created = factory_(settings->domain, config);
     if (!created) {
       diagnostics.error(where, "/component_profile/dds",
-                        "cannot join DDS domain " + std::to_string(profile.dds_domain) + " (" + name_ +
+                        "cannot join DDS domain " + std::to_string(settings->domain) + " (" + name_ +
                             "): " + created.error().message);
       return std::nullopt;
     }

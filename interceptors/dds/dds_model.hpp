@@ -11,6 +11,7 @@
 #include <string>
 
 #include "dds_endpoint.hpp"
+#include "dds_settings.hpp"
 #include "polyport/runtime/model.hpp"
 
 namespace polyport::dds {
@@ -26,6 +27,7 @@ class DdsModel final : public Model {
       : name_(std::move(name)), factory_(std::move(factory)), default_config_(std::move(default_config)) {}
 
   std::string_view name() const noexcept override { return name_; }
+  const ModelSection* profile_section() const noexcept override { return &section_; }
   std::optional<Proxy> create_proxy(const Subcomponent& subcomponent, ModelContext& context,
                                     Diagnostics& diagnostics) override;
   const std::string& default_config() const noexcept { return default_config_; }
@@ -38,6 +40,7 @@ class DdsModel final : public Model {
   std::string name_;
   DomainFactory factory_;
   std::string default_config_;
+  DdsSection section_;
   std::map<std::uint32_t, DomainEntry> domains_;
 };
 

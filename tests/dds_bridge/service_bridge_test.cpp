@@ -69,8 +69,9 @@ class ServiceBridge : public ::testing::Test {
     Subcomponent sub;
     sub.name = "app";
     sub.profile.model = "cyclonedds";
-    sub.profile.dds_max_calls_in_flight = max_in_flight;
-    sub.profile.dds_call_timeout_ns = timeout_ns;
+    auto settings = std::make_shared<dds::DdsSettings>();
+    settings->max_calls_in_flight = max_in_flight;
+    settings->call_timeout_ns = timeout_ns;
     PortSpec port;
     port.name = "calc";
     port.kind = PortKind::service;
@@ -80,8 +81,8 @@ class ServiceBridge : public ::testing::Test {
     add.name = "add";
     add.request_type = "calc::AddArgs";
     add.reply_type = "calc::AddResult";
-    add.dds_request_type = "calc::Add_Request";
-    add.dds_reply_type = "calc::Add_Reply";
+    settings->ports["calc"].operations["add"] = {"calc::Add_Request", "calc::Add_Reply"};
+    sub.profile.model_settings = settings;
     port.operations.push_back(add);
     sub.profile.ports.push_back(port);
     adaptor = dds::DdsAdaptor::create(sub, types, diagnostics);
@@ -445,8 +446,10 @@ TEST_F(ServiceBridge, WrongRequestStructIsReportedAtTheOperation) {
   add.name = "add";
   add.request_type = "calc::AddArgs";
   add.reply_type = "calc::AddResult";
-  add.dds_request_type = "calc::AddArgs";     // no header
-  add.dds_reply_type = "calc::Add_Request";   // a request header, not a reply header
+  auto settings = std::make_shared<dds::DdsSettings>();
+  settings->ports["calc"].operations["add"] = {"calc::AddArgs",       // no header
+                                               "calc::Add_Request"};  // a request header, not a reply header
+  sub.profile.model_settings = settings;
   add.where = SourceLocation{"app.xml", 12, 7};
   port.operations.push_back(add);
   sub.profile.ports.push_back(port);

@@ -9,6 +9,7 @@
 
 #include "polyport/runtime/engine.hpp"
 #include "polyport/profile/profile.hpp"
+#include "polyport/runtime/model.hpp"
 #include "polyport/types/types.hpp"
 
 namespace polyport::test {
@@ -18,6 +19,7 @@ class EngineFixture : public ::testing::Test {
   EngineFixture(std::string data_dir, LoadOptions options) : data_dir_(std::move(data_dir)), options_(std::move(options)) {}
 
   bool build(const std::string& file) {
+    options_.models = &models;
     auto profile = load_application_profile(data_dir_ + "/" + file, types, options_, diagnostics);
     return profile && engine.build(*profile, diagnostics);
   }

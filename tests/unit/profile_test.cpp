@@ -18,7 +18,10 @@
 
 #include "polyport/base/diagnostics.hpp"
 #include "polyport/profile/profile.hpp"
+#include "polyport/runtime/model.hpp"
 #include "polyport/types/types.hpp"
+#include "dds_model.hpp"
+#include "dds_settings.hpp"
 
 namespace {
 
@@ -64,10 +67,21 @@ class ProfileLoader : public ::testing::Test {
   }
   std::vector<std::string> messages() const { return rendered(diagnostics_, profiles_dir()); }
 
+  // The DDS models read their own elements (<dds>, <topic>, <qos>, dds_request / dds_reply).
+  ProfileLoader() {
+    models_.add(std::make_unique<dds::DdsModel>("cyclonedds", dds::DdsModel::DomainFactory(), ""));
+    models_.add(std::make_unique<dds::DdsModel>("fastdds", dds::DdsModel::DomainFactory(), ""));
+    options_.models = &models_;
+  }
+
   TypeRegistry types_;
   Diagnostics diagnostics_;
+  ModelRegistry models_;
   LoadOptions options_{{profiles_dir() / "libs"}};
 };
+
+// What a DDS model read from a component profile.
+const dds::DdsSettings& dds_of(const ComponentProfile& profile) { return *dds::dds_settings(profile); }
 
 TEST_F(ProfileLoader, ReadsTheValidApplication) {
   const auto app = load("valid_app.xml");
@@ -965,14 +979,14 @@ TEST_F(ProfileLoader, ReadsDdsDomainConfigAndTopics) {
   ASSERT_NE(left, nullptr);
   ASSERT_NE(right, nullptr);
   EXPECT_EQ(left->profile.model, "cyclonedds");
-  EXPECT_EQ(left->profile.dds_domain, 144u);
-  EXPECT_FALSE(left->profile.dds_config.has_value());  // the model's default
-  EXPECT_EQ(right->profile.dds_domain, 145u);
-  ASSERT_TRUE(right->profile.dds_config.has_value());
-  EXPECT_EQ(right->profile.dds_config->filename(), "cyclonedds-loopback.xml");
-  EXPECT_TRUE(right->profile.dds_config->is_absolute());
+  EXPECT_EQ(dds_of(left->profile).domain, 144u);
+  EXPECT_FALSE(dds_of(left->profile).config.has_value());  // the model's default
+  EXPECT_EQ(dds_of(right->profile).domain, 145u);
+  ASSERT_TRUE(dds_of(right->profile).config.has_value());
+  EXPECT_EQ(dds_of(right->profile).config->filename(), "cyclonedds-loopback.xml");
+  EXPECT_TRUE(dds_of(right->profile).config->is_absolute());
   ASSERT_EQ(left->profile.ports.size(), 1u);
-  EXPECT_EQ(left->profile.ports[0].topic, "polyport_bridge_pose");
+  EXPECT_EQ(dds_of(left->profile).port("pose_in").topic, "polyport_bridge_pose");
   EXPECT_EQ(left->profile.ports[0].direction, PortDirection::output);
 }
 
@@ -985,7 +999,7 @@ TEST_F(ProfileLoader, DdsQosDefaultsWhenAbsent) {
   const auto app = load("../cyclonedds/bridge_app.xml");
   ASSERT_TRUE(app.has_value()) << ::testing::PrintToString(messages());
   const ComponentProfile& profile = app->find_component("left")->profile;
-  const DdsQos& qos = profile.ports[0].qos;
+  const DdsQos& qos = dds_of(profile).port(profile.ports[0].name).qos;
   EXPECT_EQ(qos, DdsQos{});
   EXPECT_EQ(qos.reliability, DdsQos::Reliability::reliable);
   EXPECT_EQ(qos.durability, DdsQos::Durability::volatile_);
@@ -994,8 +1008,8 @@ TEST_F(ProfileLoader, DdsQosDefaultsWhenAbsent) {
   EXPECT_FALSE(qos.deadline_ns || qos.lifespan_ns || qos.lease_ns);
   EXPECT_EQ(qos.liveliness, DdsQos::Liveliness::automatic);
   EXPECT_TRUE(qos.partitions.empty());
-  EXPECT_EQ(profile.dds_max_calls_in_flight, 16u);
-  EXPECT_EQ(profile.dds_call_timeout_ns, 1'000'000'000);
+  EXPECT_EQ(dds_of(profile).max_calls_in_flight, 16u);
+  EXPECT_EQ(dds_of(profile).call_timeout_ns, 1'000'000'000);
 }
 
 TEST_F(ProfileLoader, DdsQosFromTheComponentAndOverriddenByAPort) {
@@ -1003,12 +1017,12 @@ TEST_F(ProfileLoader, DdsQosFromTheComponentAndOverriddenByAPort) {
   ASSERT_TRUE(app.has_value()) << ::testing::PrintToString(messages());
   EXPECT_TRUE(messages().empty()) << ::testing::PrintToString(messages());
   const ComponentProfile& profile = app->find_component("comp")->profile;
-  EXPECT_EQ(profile.dds_domain, 3u);
-  EXPECT_EQ(profile.dds_max_calls_in_flight, 3u);
-  EXPECT_EQ(profile.dds_call_timeout_ns, 40'000'000);
+  EXPECT_EQ(dds_of(profile).domain, 3u);
+  EXPECT_EQ(dds_of(profile).max_calls_in_flight, 3u);
+  EXPECT_EQ(dds_of(profile).call_timeout_ns, 40'000'000);
 
-  const DdsQos& plain = profile.find_port("plain")->qos;  // the component's, as given
-  EXPECT_EQ(plain, profile.dds_qos);
+  const DdsQos& plain = dds_of(profile).port("plain").qos;  // the component's, as given
+  EXPECT_EQ(plain, dds_of(profile).qos);
   EXPECT_EQ(plain.reliability, DdsQos::Reliability::best_effort);
   EXPECT_EQ(plain.durability, DdsQos::Durability::transient_local);
   EXPECT_EQ(plain.history, DdsQos::History::keep_all);
@@ -1019,7 +1033,7 @@ TEST_F(ProfileLoader, DdsQosFromTheComponentAndOverriddenByAPort) {
   EXPECT_EQ(plain.lease_ns, 2'000'000'000);
   EXPECT_EQ(plain.partitions, (std::vector<std::string>{"a", "b"}));
 
-  const PortSpec* tuned = profile.find_port("tuned");
+  const dds::PortSettings* tuned = &dds_of(profile).port("tuned");
   EXPECT_EQ(tuned->topic, "t");
   EXPECT_EQ(tuned->qos.reliability, DdsQos::Reliability::reliable);  // overridden
   EXPECT_FALSE(tuned->qos.deadline_ns.has_value());                  // 0: infinite
@@ -1028,10 +1042,10 @@ TEST_F(ProfileLoader, DdsQosFromTheComponentAndOverriddenByAPort) {
   EXPECT_EQ(tuned->qos.lifespan_ns, 250'500'000);
 
   const PortSpec* svc = profile.find_port("svc");
-  EXPECT_EQ(svc->topic, "base");
+  EXPECT_EQ(dds_of(profile).port("svc").topic, "base");
   ASSERT_EQ(svc->operations.size(), 1u);
-  EXPECT_EQ(svc->operations[0].dds_request_type, "q::Op_Request");
-  EXPECT_EQ(svc->operations[0].dds_reply_type, "q::Op_Reply");
+  EXPECT_EQ(dds_of(profile).port("svc").operation("op")->request_type, "q::Op_Request");
+  EXPECT_EQ(dds_of(profile).port("svc").operation("op")->reply_type, "q::Op_Reply");
 }
 
 TEST_F(ProfileLoader, DdsQosAndServiceErrorsAtTheirPlaces) {
@@ -1083,16 +1097,16 @@ TEST_F(ProfileLoader, DdsQosOfEventAndServicePortsOverTheComponents) {
       "deadline_ms: readers may miss every deadline",
   }));
   const ComponentProfile& profile = app->find_component("comp")->profile;
-  EXPECT_FALSE(profile.dds_qos.lease_ns.has_value());  // 0: infinite
-  EXPECT_EQ(profile.dds_qos.deadline_ns, 100'000'000);
-  EXPECT_EQ(profile.dds_max_calls_in_flight, 16u);     // <dds> without the service limits
-  EXPECT_EQ(profile.dds_call_timeout_ns, 1'000'000'000);
+  EXPECT_FALSE(dds_of(profile).qos.lease_ns.has_value());  // 0: infinite
+  EXPECT_EQ(dds_of(profile).qos.deadline_ns, 100'000'000);
+  EXPECT_EQ(dds_of(profile).max_calls_in_flight, 16u);     // <dds> without the service limits
+  EXPECT_EQ(dds_of(profile).call_timeout_ns, 1'000'000'000);
 
   const PortSpec* event = profile.find_port("ev");
   ASSERT_NE(event, nullptr);
   EXPECT_EQ(event->kind, PortKind::event);
-  EXPECT_EQ(event->topic, "");  // the port's name is the topic
-  const DdsQos& ev = event->qos;
+  EXPECT_EQ(dds_of(profile).port("ev").topic, "");  // the port's name is the topic
+  const DdsQos& ev = dds_of(profile).port("ev").qos;
   EXPECT_EQ(ev.durability, DdsQos::Durability::transient_local);          // the port's
   EXPECT_EQ(ev.liveliness, DdsQos::Liveliness::manual_by_participant);    // the port's
   EXPECT_EQ(ev.lease_ns, 1'250'000);                                      // over the component's 0
@@ -1106,8 +1120,8 @@ TEST_F(ProfileLoader, DdsQosOfEventAndServicePortsOverTheComponents) {
   const PortSpec* service = profile.find_port("svc");
   ASSERT_NE(service, nullptr);
   EXPECT_EQ(service->kind, PortKind::service);
-  EXPECT_EQ(service->topic, "calc/v1");
-  const DdsQos& svc = service->qos;
+  EXPECT_EQ(dds_of(profile).port("svc").topic, "calc/v1");
+  const DdsQos& svc = dds_of(profile).port("svc").qos;
   EXPECT_EQ(svc.reliability, DdsQos::Reliability::best_effort);
   EXPECT_EQ(svc.history, DdsQos::History::keep_last);  // back from the component's keep_all
   EXPECT_EQ(svc.depth, 2);
@@ -1123,12 +1137,12 @@ TEST_F(ProfileLoader, DdsQosOfEventAndServicePortsOverTheComponents) {
   EXPECT_EQ(get.name, "get");
   EXPECT_EQ(get.request_type, "");
   EXPECT_EQ(get.reply_type, "q::Result");
-  EXPECT_EQ(get.dds_request_type, "q::Get_Request");
-  EXPECT_EQ(get.dds_reply_type, "q::Get_Reply");
+  EXPECT_EQ(dds_of(profile).port("svc").operation("get")->request_type, "q::Get_Request");
+  EXPECT_EQ(dds_of(profile).port("svc").operation("get")->reply_type, "q::Get_Reply");
   const OperationSpec& fire = service->operations[1];
   EXPECT_TRUE(fire.oneway);
-  EXPECT_EQ(fire.dds_request_type, "q::Fire_Request");
-  EXPECT_EQ(fire.dds_reply_type, "");  // a oneway operation needs none
+  EXPECT_EQ(dds_of(profile).port("svc").operation("fire")->request_type, "q::Fire_Request");
+  EXPECT_EQ(dds_of(profile).port("svc").operation("fire")->reply_type, "");  // a oneway operation needs none
 }
 
 TEST_F(ProfileLoader, DdsBadValuesAtTheirPlaces) {
@@ -1182,8 +1196,7 @@ TEST_F(ProfileLoader, DdsElementsOnAnInprocComponentWarnAndAreIgnored) {
   ASSERT_NE(service, nullptr);
   ASSERT_EQ(service->operations.size(), 2u);
   // Ignored: not kept, and 'q::Nothing' (no such type) is not looked up.
-  EXPECT_EQ(service->operations[0].dds_request_type, "");
-  EXPECT_EQ(service->operations[0].dds_reply_type, "");
+  EXPECT_EQ(app->find_component("inproc")->profile.model_settings, nullptr);  // nothing kept
   EXPECT_EQ(service->operations[0].request_type, "q::Args");
   EXPECT_EQ(service->operations[1].name, "plain");  // no dds_request needed
 }

@@ -17,6 +17,8 @@
 namespace polyport {
 
 class TypeRegistry;
+class ModelSettings;
+class ModelSections;
 
 enum class PortKind : std::uint8_t { data, service, event };
 enum class PortDirection : std::uint8_t { input, output, provided, required };
@@ -30,33 +32,7 @@ struct OperationSpec {
   std::string request_type;  // empty: no request payload
   std::string reply_type;    // empty: no reply payload
   bool oneway = false;       // `send`: no reply at all
-  // DDS models: the structs on the request and reply topics (a correlation header, then the
-  // payload; see docs/PROFILES.md). Empty for other models.
-  std::string dds_request_type;
-  std::string dds_reply_type;
   SourceLocation where;
-};
-
-// DDS endpoint QoS (DDS models). The defaults are ROS 2's default profile, which is also what
-// idlc / fastddsgen example applications use: reliable, volatile, keep_last 10, no deadline,
-// infinite lifespan, automatic liveliness with an infinite lease, the default partition.
-// A component's <dds><qos> sets its ports' QoS; a port's <qos> overrides it field by field.
-struct DdsQos {
-  enum class Reliability : std::uint8_t { best_effort, reliable };
-  enum class Durability : std::uint8_t { volatile_, transient_local };
-  enum class History : std::uint8_t { keep_last, keep_all };
-  enum class Liveliness : std::uint8_t { automatic, manual_by_participant, manual_by_topic };
-  Reliability reliability = Reliability::reliable;
-  Durability durability = Durability::volatile_;
-  History history = History::keep_last;
-  std::int32_t depth = 10;                 // keep_last only
-  std::optional<std::int64_t> deadline_ns;  // nullopt: infinite
-  std::optional<std::int64_t> lifespan_ns;  // nullopt: infinite
-  Liveliness liveliness = Liveliness::automatic;
-  std::optional<std::int64_t> lease_ns;     // nullopt: infinite
-  std::vector<std::string> partitions;      // empty: the default ("") partition
-
-  bool operator==(const DdsQos&) const = default;
 };
 
 struct PortSpec {
@@ -68,9 +44,6 @@ struct PortSpec {
   std::vector<OperationSpec> operations;  // service ports
   std::optional<QueuePolicy> policy;   // input data/event ports: reading-side policy
   std::optional<std::uint32_t> depth;  // buffer/circular depth
-  std::string topic;                   // DDS models: the topic (service ports: the base of the
-                                       // request/reply topics); empty: the port name
-  DdsQos qos;                          // DDS models: the component's <dds><qos>, then the port's
   SourceLocation where;
 };
 
@@ -98,15 +71,9 @@ struct ComponentProfile {
   std::filesystem::path library_path;  // inproc: resolved path (empty if not found)
   std::string class_name;           // inproc: component class in the library (default: name)
   ExecutionSemantics execution;
-  // DDS models (<dds>): the domain id, and the middleware configuration file (absolute).
-  // dds_config: nullopt = the model's shipped default; an empty path = the SDK's own defaults
-  // (for Cyclone: CYCLONEDDS_URI from the environment).
-  std::uint32_t dds_domain = 0;
-  std::optional<std::filesystem::path> dds_config;
-  DdsQos dds_qos;                        // <dds><qos>: the default of every port
-  std::uint32_t dds_max_calls_in_flight = 16;  // per service port, both directions
-  std::int64_t dds_call_timeout_ns = 1'000'000'000;  // a DDS provider's reply, at most
-  SourceLocation dds_where;
+  // What the component's model read from its own elements (model_section.hpp); null when the
+  // model reads none. Core never looks inside: the model's create_proxy does.
+  std::shared_ptr<const ModelSettings> model_settings;
   InitialState initial_state = InitialState::active;  // OPRoS lifecycle_type start|stop
   std::vector<PropertySpec> properties;
   std::vector<PortSpec> ports;
@@ -157,6 +124,9 @@ struct ApplicationProfile {
 struct LoadOptions {
   // Where component libraries are looked for, after the component profile's own folder.
   std::vector<std::filesystem::path> library_path;
+  // The models whose own elements the loader hands over (the daemon's model registry). Null:
+  // no model reads any, and their elements warn as unknown.
+  const ModelSections* models = nullptr;
 };
 
 // Reads an application profile, every component profile it references and every type file

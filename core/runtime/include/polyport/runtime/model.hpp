@@ -16,6 +16,7 @@
 #include "polyport/runtime/component.hpp"
 #include "polyport/base/diagnostics.hpp"
 #include "polyport/runtime/execution_context.hpp"
+#include "polyport/profile/model_section.hpp"
 #include "polyport/profile/profile.hpp"
 #include "polyport/base/result.hpp"
 
@@ -65,16 +66,22 @@ class Model {
  public:
   virtual ~Model() = default;
   virtual std::string_view name() const noexcept = 0;
+  // The model's own profile elements and their reader (model_section.hpp); null when the
+  // model has none. What the reader returns arrives in create_proxy as the component
+  // profile's model_settings.
+  virtual const ModelSection* profile_section() const noexcept { return nullptr; }
   // Problems go to diagnostics with the profile's locations; nullopt when there was one.
   virtual std::optional<Proxy> create_proxy(const Subcomponent& subcomponent, ModelContext& context,
                                             Diagnostics& diagnostics) = 0;
 };
 
-class ModelRegistry {
+// Also what the profile loader knows of models (LoadOptions::models): their sections.
+class ModelRegistry final : public ModelSections {
  public:
   void add(std::unique_ptr<Model> model);
   Model* find(std::string_view name) const noexcept;
   std::vector<std::string> names() const;
+  std::vector<std::pair<std::string_view, const ModelSection*>> sections() const override;
 
  private:
   std::vector<std::unique_ptr<Model>> models_;
