@@ -11,6 +11,9 @@
 #ifdef POLYPORT_WITH_FASTDDS
 #include "fastdds_domain.hpp"
 #endif
+#ifdef POLYPORT_WITH_LCM
+#include "lcm_model.hpp"
+#endif
 
 namespace polyport::daemon {
 
@@ -22,6 +25,9 @@ void register_models(ModelRegistry& registry) {
 #endif
 #ifdef POLYPORT_WITH_FASTDDS
   registry.add(std::make_unique<dds::DdsModel>("fastdds", fastdds::make_fastdds_domain, fastdds::default_config()));
+#endif
+#ifdef POLYPORT_WITH_LCM
+  registry.add(std::make_unique<lcm::LcmModel>());
 #endif
 }
 

@@ -76,9 +76,9 @@ void Loader::read_type_files(const Reporter& report, pugi::xml_node types, std::
       report.error_text(element, "type file " + in_quotes(file.string()) + " not found");
       continue;
     }
-    if (file.extension() != ".idl") {
-      report.error_text(
-          element, "unsupported type file " + in_quotes(file.string()) + " (supported: .idl)");
+    if (file.extension() != ".idl" && file.extension() != ".lcm" && file.extension() != ".dbc") {
+      report.error_text(element, "unsupported type file " + in_quotes(file.string()) +
+                                     " (supported: .idl, .lcm, .dbc)");
       continue;
     }
     pending_type_files_.push_back(file);

@@ -293,7 +293,7 @@ TEST_F(ProfileLoader, MissingAndUnreadableFiles) {
       "invalid/missing_files.xml:6:11: /application_profile/types/file[2]: type file "
       "'invalid/types/nowhere.idl' not found",
       "invalid/missing_files.xml:7:11: /application_profile/types/file[3]: unsupported type file "
-      "'invalid/types/motor.lcm' (supported: .idl)",
+      "'invalid/types/Motor.msg' (supported: .idl, .lcm, .dbc)",
       "invalid/missing_files.xml:12:18: /application_profile/subcomponents/subcomponent[1]/"
       "reference: component profile 'invalid/components/Ghost.xml' not found",
       "invalid/components/BrokenSyntax.xml:6:5: XML syntax error: Start-end tags mismatch",

@@ -1,0 +1,81 @@
+// One LCM instance (lcm_t) per provider URL, shared by every LCM proxy of the daemon that
+// names that URL, with the one receive thread that dispatches its subscriptions.
+//
+// Threads: the receive thread polls LCM's notification descriptor (lcm_get_fileno) and a
+// wake-up eventfd, and calls lcm_handle when a message is ready, so subscription handlers
+// run on it. publish() runs on whichever thread forwards a sample (LCM serialises sends
+// itself). Everything else runs on the control thread.
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include "polyport/base/result.hpp"
+
+extern "C" {
+struct _lcm_t;
+typedef struct _lcm_t lcm_t;
+struct _lcm_subscription_t;
+typedef struct _lcm_subscription_t lcm_subscription_t;
+struct _lcm_recv_buf_t;
+typedef struct _lcm_recv_buf_t lcm_recv_buf_t;
+}
+
+namespace polyport::lcm {
+
+// Receives the messages of one subscription on the receive thread.
+class MessageHandler {
+ public:
+  virtual ~MessageHandler() = default;
+  virtual void on_message(const void* data, std::uint32_t size) noexcept = 0;
+};
+
+class Instance {
+ public:
+  // Creates the lcm_t; the receive side (and LCM's multicast self test) waits for start().
+  static Result<std::shared_ptr<Instance>> create(const std::string& url);
+  ~Instance();
+  Instance(const Instance&) = delete;
+  Instance& operator=(const Instance&) = delete;
+
+  // Sets up receiving and starts the receive thread (once; later calls return at once). A
+  // udpm URL whose multicast group has no route, or whose datagrams do not come back to this
+  // host, is an error that says which route to add.
+  Result<void> start();
+
+  // Subscribes to exactly `channel` (not a pattern). Control thread.
+  Result<lcm_subscription_t*> subscribe(const std::string& channel, MessageHandler& handler);
+  // After it returns, the handler is not running and is not called again.
+  void unsubscribe(lcm_subscription_t* subscription) noexcept;
+
+  // 0 on success (lcm_publish's result). Any thread; no allocation by polyport.
+  int publish(const char* channel, const void* data, std::uint32_t size) noexcept;
+
+  const std::string& url() const noexcept { return url_; }
+
+ private:
+  Instance(std::string url, lcm_t* lcm) : url_(std::move(url)), lcm_(lcm) {}
+  void run() noexcept;
+
+  std::string url_;
+  lcm_t* lcm_ = nullptr;
+  int fileno_ = -1;
+  int wake_fd_ = -1;
+  std::atomic<bool> stopping_{false};
+  std::thread thread_;
+};
+
+// Escapes `channel` for lcm_subscribe, which takes an anchored regular expression.
+std::string channel_pattern(const std::string& channel);
+
+// For a udpm:// URL, the multicast group and port it names (LCM's defaults when left out);
+// empty group for other providers.
+struct MulticastAddress {
+  std::string group;
+  int port = 0;
+};
+MulticastAddress multicast_address(const std::string& url);
+
+}  // namespace polyport::lcm

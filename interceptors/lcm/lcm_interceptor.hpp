@@ -1,0 +1,77 @@
+// The native side of an LCM proxy: a subscription per `output` channel and a publisher per
+// `input` channel of one component, on the model's instance for the component's URL.
+//
+// Threads and buffers (forwarding path):
+//  - application -> polyport: a subscription's handler runs on the instance's receive
+//    thread with LCM's buffer (valid for the call), checks size and fingerprint (a wrong one
+//    is counted and dropped) and calls DataOutPort::write. No allocation, no lock of ours.
+//  - polyport -> application: an `input` port's sink runs on the upstream writer's thread
+//    and hands the bytes to lcm_publish (LCM copies them into its datagrams).
+// start/stop/describe run on the control thread. Handlers and sinks live as long as the
+// interceptor; stop detaches them (atomics), so a late call finds nothing to forward to.
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "lcm_adaptor.hpp"
+#include "lcm_instance.hpp"
+#include "polyport/runtime/model.hpp"
+#include "polyport/runtime/port.hpp"
+
+namespace polyport::lcm {
+
+class LcmInterceptor final : public Interceptor {
+ public:
+  LcmInterceptor(LcmAdaptor& adaptor, std::shared_ptr<Instance> instance);
+  ~LcmInterceptor() override;
+
+  Result<void> start() override;
+  void stop() noexcept override;
+  ReturnCode command(LifecycleCommand command) override;
+  InterceptorStatus status() const override;
+  void describe(nlohmann::json& out) const override;
+
+ private:
+  // One `output` channel: what the application publishes, into the port.
+  class ChannelReader final : public MessageHandler {
+   public:
+    explicit ChannelReader(const LcmAdaptor::Channel& channel) : channel_(channel) {}
+    void on_message(const void* data, std::uint32_t size) noexcept override;
+
+    std::atomic<bool> active{false};
+    std::atomic<std::uint64_t> received{0};
+    std::atomic<std::uint64_t> wrong_fingerprint{0};
+    std::atomic<std::uint64_t> too_short{0};
+    std::atomic<std::uint64_t> too_large{0};
+    lcm_subscription_t* subscription = nullptr;  // control thread
+
+   private:
+    const LcmAdaptor::Channel& channel_;
+  };
+
+  // One `input` channel: the port's sink publishes each sample.
+  class ChannelWriter final : public SampleSink {
+   public:
+    ChannelWriter(const LcmAdaptor::Channel& channel, Instance& instance) : channel_(channel), instance_(instance) {}
+    Status on_sample(const std::byte* data, const SampleMeta& meta) noexcept override;
+
+    std::atomic<bool> active{false};
+    std::atomic<std::uint64_t> published{0};
+    std::atomic<std::uint64_t> failed{0};
+
+   private:
+    const LcmAdaptor::Channel& channel_;
+    Instance& instance_;
+  };
+
+  LcmAdaptor& adaptor_;  // owned by the same Proxy; outlives start/stop
+  std::shared_ptr<Instance> instance_;
+  std::vector<std::unique_ptr<ChannelReader>> readers_;  // per channel; null for input channels
+  std::vector<std::unique_ptr<ChannelWriter>> writers_;  // per channel; null for output channels
+  bool active_ = false;
+};
+
+}  // namespace polyport::lcm
