@@ -71,10 +71,8 @@ MulticastAddress multicast_address(const std::string& url) {
   return address;
 }
 
-Result<std::shared_ptr<Instance>> Instance::create(const std::string& url) {
-  lcm_t* lcm = lcm_create(url.c_str());
-  if (lcm == nullptr) return make_error("LCM cannot open provider '" + url + "' (lcm_create failed)");
-  return std::shared_ptr<Instance>(new Instance(url, lcm));
+std::shared_ptr<Instance> Instance::create(const std::string& url) {
+  return std::shared_ptr<Instance>(new Instance(url));
 }
 
 Instance::~Instance() {
@@ -85,14 +83,19 @@ Instance::~Instance() {
     thread_.join();
   }
   if (wake_fd_ >= 0) close(wake_fd_);
-  lcm_destroy(lcm_);
+  if (lcm_ != nullptr) lcm_destroy(lcm_);
 }
 
 Result<void> Instance::start() {
   if (thread_.joinable()) return {};
   const MulticastAddress address = multicast_address(url_);
   if (!address.group.empty()) {
+    // Before lcm_create, which refuses a group without a route and prints its own advice.
     if (auto routed = check_route(address, url_); !routed) return routed;
+  }
+  if (lcm_ == nullptr) {
+    lcm_ = lcm_create(url_.c_str());
+    if (lcm_ == nullptr) return make_error("LCM cannot open provider '" + url_ + "' (lcm_create failed)");
   }
   // For udpm this sets up the receive socket and runs LCM's self test (a message to itself).
   fileno_ = lcm_get_fileno(lcm_);

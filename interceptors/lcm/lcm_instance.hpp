@@ -34,15 +34,15 @@ class MessageHandler {
 
 class Instance {
  public:
-  // Creates the lcm_t; the receive side (and LCM's multicast self test) waits for start().
-  static Result<std::shared_ptr<Instance>> create(const std::string& url);
+  // Nothing is opened before start(), so a profile is checked on any host.
+  static std::shared_ptr<Instance> create(const std::string& url);
   ~Instance();
   Instance(const Instance&) = delete;
   Instance& operator=(const Instance&) = delete;
 
-  // Sets up receiving and starts the receive thread (once; later calls return at once). A
-  // udpm URL whose multicast group has no route, or whose datagrams do not come back to this
-  // host, is an error that says which route to add.
+  // Opens the provider, sets up receiving and starts the receive thread (once; later calls
+  // return at once). A udpm URL whose multicast group has no route, or whose datagrams do not
+  // come back to this host, is an error that says which route to add.
   Result<void> start();
 
   // Subscribes to exactly `channel` (not a pattern). Control thread.
@@ -50,13 +50,13 @@ class Instance {
   // After it returns, the handler is not running and is not called again.
   void unsubscribe(lcm_subscription_t* subscription) noexcept;
 
-  // 0 on success (lcm_publish's result). Any thread; no allocation by polyport.
+  // 0 on success (lcm_publish's result). Any thread, after start(); no allocation by polyport.
   int publish(const char* channel, const void* data, std::uint32_t size) noexcept;
 
   const std::string& url() const noexcept { return url_; }
 
  private:
-  Instance(std::string url, lcm_t* lcm) : url_(std::move(url)), lcm_(lcm) {}
+  explicit Instance(std::string url) : url_(std::move(url)) {}
   void run() noexcept;
 
   std::string url_;

@@ -9,19 +9,12 @@ std::optional<Proxy> LcmModel::create_proxy(const Subcomponent& sub, ModelContex
                                             Diagnostics& diagnostics) {
   const ComponentProfile& profile = sub.profile;
   const std::shared_ptr<const LcmSettings> settings = lcm_settings(profile);
-  const SourceLocation where = settings->where.line != 0 ? settings->where : profile.where;
-
   std::unique_ptr<LcmAdaptor> adaptor = LcmAdaptor::create(sub, context.types, diagnostics);
   if (!adaptor) return std::nullopt;
 
   std::shared_ptr<Instance> instance = instances_[settings->url].lock();
   if (!instance) {
-    auto created = Instance::create(settings->url);
-    if (!created) {
-      diagnostics.error(where, "/component_profile/lcm", created.error().message);
-      return std::nullopt;
-    }
-    instance = std::move(created).value();
+    instance = Instance::create(settings->url);
     instances_[settings->url] = instance;
   }
   auto interceptor = std::make_unique<LcmInterceptor>(*adaptor, std::move(instance));

@@ -1,0 +1,139 @@
+// An LCM application built with Debian's lcm-gen (C) and liblcm alone, for the end-to-end
+// tests: it publishes or subscribes on a channel and prints what it received as JSON lines.
+//
+//   lcm_peer pub  URL CHANNEL [PERIOD_MS [START]]  poses i = START, START+1, ... until stopped
+//   lcm_peer sub  URL CHANNEL                      prints every pose it receives
+//   lcm_peer bad  URL CHANNEL [PERIOD_MS]          per round: an other_t, a pose cut short
+//                                                  after its fingerprint, then a good pose
+//   lcm_peer blob-pub URL CHANNEL BYTES [PERIOD_MS] blob_t messages of BYTES bytes
+//   lcm_peer blob-sub URL CHANNEL                  prints id, size and whether every byte is right
+//
+// Values are those of tests/dds_peers/pose_values.hpp, so a receiver checks every field.
+#include <lcm/lcm.h>
+#include <poll.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "peer_blob_t.h"
+#include "peer_common.hpp"
+#include "peer_other_t.h"
+#include "peer_pose_t.h"
+#include "pose_values.hpp"
+
+namespace {
+
+using peer_common::g_stop;
+using peer_common::line;
+
+std::uint8_t blob_byte(int id, std::size_t k) { return static_cast<std::uint8_t>((id * 7 + k) % 251); }
+
+// Fills `pose` with sample i; `samples` and `frame` keep the storage it points into.
+void make_pose(int i, peer_pose_t& pose, std::vector<double>& samples, std::string& frame) {
+  pose.id = peer_values::id(i);
+  pose.x = peer_values::x(i);
+  pose.heading = peer_values::heading(i);
+  pose.valid = peer_values::valid(i) ? 1 : 0;
+  frame = peer_values::frame(i);
+  pose.frame = frame.data();
+  samples.resize(peer_values::sample_count(i));
+  for (std::size_t k = 0; k < samples.size(); ++k) samples[k] = peer_values::sample(i, static_cast<int>(k));
+  pose.nsamples = static_cast<int32_t>(samples.size());
+  pose.samples = samples.data();
+  for (int k = 0; k < 4; ++k) pose.quad[k] = peer_values::quad(i, k);
+}
+
+void on_pose(const lcm_recv_buf_t*, const char*, const peer_pose_t* pose, void*) {
+  peer_common::pose_line(pose->id, pose->x, pose->heading, pose->valid != 0, pose->frame, pose->samples,
+                         static_cast<std::size_t>(pose->nsamples), pose->quad);
+}
+
+void on_blob(const lcm_recv_buf_t*, const char*, const peer_blob_t* blob, void*) {
+  bool ok = blob->size >= 0;
+  for (std::size_t k = 0; ok && k < static_cast<std::size_t>(blob->size); ++k) ok = blob->data[k] == blob_byte(blob->id, k);
+  line(R"({"blob":)" + std::to_string(blob->id) + R"(,"size":)" + std::to_string(blob->size) + R"(,"ok":)" +
+       (ok ? "true" : "false") + "}");
+}
+
+// Handles messages until stopped.
+int serve(lcm_t* lcm) {
+  const int fd = lcm_get_fileno(lcm);
+  if (fd < 0) {
+    line(R"({"event":"error","what":"lcm_get_fileno"})");
+    return 1;
+  }
+  line(R"({"event":"subscribed"})");
+  while (!g_stop) {
+    pollfd p{fd, POLLIN, 0};
+    if (poll(&p, 1, 100) > 0) lcm_handle(lcm);
+  }
+  return 0;
+}
+
+void pause_ms(int ms) { std::this_thread::sleep_for(std::chrono::milliseconds(ms)); }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  peer_common::stop_on_signals();
+  if (argc < 4) {
+    std::fprintf(stderr, "usage: lcm_peer pub|sub|bad|blob-pub|blob-sub URL CHANNEL [...]\n");
+    return 2;
+  }
+  const std::string mode = argv[1];
+  const char* channel = argv[3];
+  lcm_t* lcm = lcm_create(argv[2]);
+  if (lcm == nullptr) {
+    line(R"({"event":"error","what":"lcm_create"})");
+    return 1;
+  }
+  int rc = 0;
+  if (mode == "sub") {
+    peer_pose_t_subscribe(lcm, channel, on_pose, nullptr);
+    rc = serve(lcm);
+  } else if (mode == "blob-sub") {
+    peer_blob_t_subscribe(lcm, channel, on_blob, nullptr);
+    rc = serve(lcm);
+  } else if (mode == "pub" || mode == "bad") {
+    const int period = argc > 4 ? std::atoi(argv[4]) : 20;
+    int i = argc > 5 ? std::atoi(argv[5]) : 0;
+    peer_pose_t pose{};
+    std::vector<double> samples;
+    std::string frame;
+    std::vector<std::uint8_t> wire;
+    for (; !g_stop; ++i) {
+      make_pose(i, pose, samples, frame);
+      if (mode == "bad") {
+        peer_other_t other{i, 1.5};
+        peer_other_t_publish(lcm, channel, &other);
+        wire.resize(static_cast<std::size_t>(peer_pose_t_encoded_size(&pose)));
+        peer_pose_t_encode(wire.data(), 0, static_cast<int>(wire.size()), &pose);
+        lcm_publish(lcm, channel, wire.data(), 12);  // the fingerprint and half the id
+      }
+      peer_pose_t_publish(lcm, channel, &pose);
+      line(R"({"event":"published","id":)" + std::to_string(pose.id) + "}");
+      pause_ms(period);
+    }
+  } else if (mode == "blob-pub") {
+    const int bytes = argc > 4 ? std::atoi(argv[4]) : 200000;
+    const int period = argc > 5 ? std::atoi(argv[5]) : 50;
+    std::vector<std::uint8_t> data(static_cast<std::size_t>(bytes));
+    for (int id = 1; !g_stop; ++id) {
+      for (std::size_t k = 0; k < data.size(); ++k) data[k] = blob_byte(id, k);
+      peer_blob_t blob{id, bytes, data.data()};
+      peer_blob_t_publish(lcm, channel, &blob);
+      line(R"({"event":"published","blob":)" + std::to_string(id) + "}");
+      pause_ms(period);
+    }
+  } else {
+    std::fprintf(stderr, "lcm_peer: unknown mode '%s'\n", mode.c_str());
+    rc = 2;
+  }
+  lcm_destroy(lcm);
+  return rc;
+}

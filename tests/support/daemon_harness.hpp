@@ -1,0 +1,185 @@
+// The harness of end-to-end tests that run polyportd as an operator would, with peer
+// programs as child processes: output in files, every wait for a line or a file with a
+// deadline, statistics read back when the daemon stops.
+#pragma once
+
+#include <gtest/gtest.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+extern char** environ;
+
+namespace polyport::test {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using Json = nlohmann::json;
+
+// A child process whose stdout and stderr go to files; killed when the handle goes.
+class Child {
+ public:
+  Child(const fs::path& dir, const std::string& tag, std::vector<std::string> args)
+      : out_(dir / (tag + ".out")), err_(dir / (tag + ".err")) {
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, out_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&actions, 2, err_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (posix_spawn(&pid_, argv[0], &actions, nullptr, argv.data(), environ) != 0) pid_ = -1;
+    posix_spawn_file_actions_destroy(&actions);
+  }
+  // Asks the child to end (SIGTERM: the peers then leave their domain properly), and kills it
+  // if it has not within a few seconds.
+  ~Child() {
+    if (pid_ > 0 && !exited_) {
+      kill(pid_, SIGTERM);
+      if (wait(5s) == -1) {
+        kill(pid_, SIGKILL);
+        waitpid(pid_, nullptr, 0);
+      }
+    }
+  }
+  Child(const Child&) = delete;
+  Child& operator=(const Child&) = delete;
+
+  bool started() const { return pid_ > 0; }
+  void signal(int number) const {
+    if (pid_ > 0 && !exited_) kill(pid_, number);
+  }
+  // The exit status, or -1 if the child did not end within `limit`.
+  int wait(std::chrono::milliseconds limit) {
+    const auto deadline = std::chrono::steady_clock::now() + limit;
+    while (!exited_) {
+      int status = 0;
+      if (waitpid(pid_, &status, WNOHANG) == pid_) {
+        exited_ = true;
+        code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+        break;
+      }
+      if (std::chrono::steady_clock::now() > deadline) return -1;
+      std::this_thread::sleep_for(5ms);
+    }
+    return code_;
+  }
+  // The JSON lines written so far (lines that are not JSON are skipped).
+  std::vector<Json> lines() const {
+    std::vector<Json> out;
+    std::ifstream in(out_);
+    std::string text;
+    while (std::getline(in, text)) {
+      Json j = Json::parse(text, nullptr, false);
+      if (!j.is_discarded()) out.push_back(std::move(j));
+    }
+    return out;
+  }
+  bool saw_event(const std::string& event) const {
+    for (const Json& j : lines()) {
+      if (j.value("event", "") == event) return true;
+    }
+    return false;
+  }
+  std::string errors() const {
+    std::ifstream in(err_);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
+
+ private:
+  fs::path out_, err_;
+  pid_t pid_ = -1;
+  bool exited_ = false;
+  int code_ = -1;
+};
+
+// Polls (every 10 ms: the conditions read the peers' output files) until `condition` holds
+// or `limit` passes.
+template <class F>
+bool eventually(F&& condition, std::chrono::milliseconds limit = 30s) {
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  while (!condition()) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(10ms);
+  }
+  return true;
+}
+
+// A test with its own folder (kept when the test fails), polyportd (POLYPORTD) and peers.
+class DaemonTest : public ::testing::Test {
+ public:
+  // `prefix` names the test's folder: <tmp>/<prefix>-<pid>-<test name>.
+  explicit DaemonTest(std::string prefix) : prefix_(std::move(prefix)) {}
+
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() / (prefix_ + "-" + std::to_string(getpid()) + "-" + info->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+
+  std::unique_ptr<Child> daemon(const fs::path& app, std::vector<std::string> extra = {}) {
+    std::vector<std::string> args{POLYPORTD, "run", app.string(), "-q", "--stats-json", stats_file().string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    auto child = std::make_unique<Child>(dir_, "polyportd", args);
+    EXPECT_TRUE(child->started());
+    return child;
+  }
+  // Stops the daemon (SIGINT) and returns its statistics.
+  Json stop(Child& daemon) {
+    daemon.signal(SIGINT);
+    EXPECT_EQ(daemon.wait(20s), 0) << daemon.errors();
+    std::ifstream in(stats_file());
+    Json stats = Json::parse(in, nullptr, false);
+    EXPECT_FALSE(stats.is_discarded()) << "no statistics from polyportd";
+    return stats;
+  }
+  std::unique_ptr<Child> peer(const char* program, const std::string& tag, std::vector<std::string> args) {
+    args.insert(args.begin(), program);
+    auto child = std::make_unique<Child>(dir_, tag, args);
+    EXPECT_TRUE(child->started()) << program;
+    return child;
+  }
+  // Copies every file of `folder` into the test's folder with each key of `values` (such as
+  // "@SRC@") replaced by its value; returns the copy of `app`.
+  fs::path fill_templates(const fs::path& folder, const std::vector<std::pair<std::string, std::string>>& values,
+                          const std::string& app) const {
+    for (const auto& entry : fs::directory_iterator(folder)) {
+      if (!entry.is_regular_file()) continue;
+      std::ifstream in(entry.path());
+      std::stringstream text;
+      text << in.rdbuf();
+      std::string s = text.str();
+      for (const auto& [key, value] : values) {
+        for (std::size_t at = s.find(key); at != std::string::npos; at = s.find(key, at)) s.replace(at, key.size(), value);
+      }
+      std::ofstream(dir_ / entry.path().filename()) << s;
+    }
+    return dir_ / app;
+  }
+  fs::path stats_file() const { return dir_ / "stats.json"; }
+  const fs::path& dir() const { return dir_; }
+
+ private:
+  std::string prefix_;
+  fs::path dir_;
+};
+
+}  // namespace polyport::test
