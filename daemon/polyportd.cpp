@@ -98,6 +98,24 @@ std::string histogram_text(const nlohmann::json& h) {
   return out.str();
 }
 
+// Where a port lives in its model, from the model's part of the component's description
+// (describe(): lists of endpoints with the port they serve): " topic=..." or " channel=...".
+std::string native_endpoint(const nlohmann::json& component, const std::string& port) {
+  for (const auto& [key, part] : component.items()) {
+    if (!part.is_object()) continue;
+    for (const auto& [list_key, list] : part.items()) {
+      if (!list.is_array()) continue;
+      for (const auto& endpoint : list) {
+        if (!endpoint.is_object() || endpoint.value("port", "") != port) continue;
+        for (const char* name : {"topic", "channel"}) {
+          if (endpoint.contains(name)) return "  " + std::string(name) + "=" + endpoint[name].get<std::string>();
+        }
+      }
+    }
+  }
+  return {};
+}
+
 void print_graph(const nlohmann::json& graph, std::ostream& out) {
   out << "application " << graph.value("application", "") << "\n";
   out << "components:\n";
@@ -111,7 +129,7 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
       if (p.contains("service_type")) out << "  service=" << p["service_type"].get<std::string>();
       if (p.contains("policy")) out << "  policy=" << p["policy"].get<std::string>();
       if (p.contains("depth")) out << "  depth=" << p["depth"];
-      out << "\n";
+      out << native_endpoint(c, p.value("name", "")) << "\n";
     }
   }
   out << "connections:\n";
