@@ -14,17 +14,16 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
-#include <fstream>
 #include <limits>
 #include <map>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <string_view>
 #include <system_error>
 #include <utility>
 #include <vector>
 
+#include "polyport/types/lcm_parser.hpp"
 #include "polyport/types/types.hpp"
 
 namespace polyport {
@@ -661,12 +660,8 @@ std::uint64_t base_hash(const StructDecl& decl) {
 
 }  // namespace
 
-bool TypeRegistry::add_lcm_file(const std::filesystem::path& file, Diagnostics& diagnostics) {
-  return add_file(file, diagnostics, &TypeRegistry::add_lcm_text);
-}
-
-bool TypeRegistry::add_lcm_text(std::string_view text, const std::string& file_name,
-                                Diagnostics& diagnostics) {
+bool parse_lcm(std::string_view text, const std::string& file_name, TypeRegistry& registry,
+               Diagnostics& diagnostics) {
   const std::size_t errors_before = diagnostics.error_count();
   std::vector<StructDecl> decls = LcmParser(text, file_name, diagnostics).parse();
 
@@ -689,12 +684,12 @@ bool TypeRegistry::add_lcm_text(std::string_view text, const std::string& file_n
     for (const MemberDecl& member : decl.members) {
       const Type* type = nullptr;
       if (member.primitive != nullptr) {
-        type = primitive(member.primitive->kind);
+        type = registry.primitive(member.primitive->kind);
       } else if (auto it = local.find(member.type_name); it != local.end()) {
         type = registered[it->second];  // null if it failed: already reported there
         if (type == nullptr) ok = false;
       } else {
-        const Type* found = find(to_qualified(member.type_name));
+        const Type* found = registry.find(to_qualified(member.type_name));
         // find() also knows primitives by other spellings ("int32"); LCM does not.
         if (found == nullptr || found->origin == TypeOrigin::builtin) {
           diagnostics.error(member.type_where, {}, "unknown type '" + member.type_name + "'");
@@ -714,7 +709,8 @@ bool TypeRegistry::add_lcm_text(std::string_view text, const std::string& file_n
       // Innermost dimension first: T v[a][b] is an a-sized array of b-sized arrays of T.
       for (auto dimension = member.dimensions.rbegin(); dimension != member.dimensions.rend() && type != nullptr;
            ++dimension) {
-        type = dimension->variable ? sequence_of(type, 0) : array_of(type, dimension->length);
+        type = dimension->variable ? registry.sequence_of(type, 0)
+                                   : registry.array_of(type, dimension->length);
       }
       if (type == nullptr) {
         diagnostics.error(member.where, {}, "member '" + member.name + "' is too large");
@@ -728,15 +724,14 @@ bool TypeRegistry::add_lcm_text(std::string_view text, const std::string& file_n
       fields.push_back(std::move(field));
     }
     if (!ok) return false;
-    const Type* type = declare_struct(to_qualified(decl.dotted_name), std::move(fields), decl.where, diagnostics);
+    Type* type =
+        registry.declare_struct(to_qualified(decl.dotted_name), std::move(fields), decl.where, diagnostics);
     if (type == nullptr) return false;
-    // declare_struct hands out a const view of a Type the registry owns (and we are the
-    // registry); the LCM facts are set once here, before anyone else can see the type.
-    Type& lcm_type = const_cast<Type&>(*type);
-    lcm_type.origin = TypeOrigin::lcm;
-    lcm_type.lcm_fingerprint = rotate_left_1(base_hash(decl) + member_hashes);
+    // The LCM facts are set once here, before anyone else can see the type.
+    type->origin = TypeOrigin::lcm;
+    type->lcm_fingerprint = rotate_left_1(base_hash(decl) + member_hashes);
     for (ConstantDecl& constant : decl.constants) {
-      constants_.insert_or_assign(type->name + "::" + constant.name, std::move(constant.value));
+      registry.set_constant(type->name + "::" + constant.name, std::move(constant.value));
     }
     registered[index] = type;
     return true;

@@ -1,11 +1,6 @@
 #include "polyport/types/types.hpp"
 
 #include <algorithm>
-
-#include <sstream>
-
-#include <fstream>
-
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -413,34 +408,6 @@ std::optional<ConstValue> TypeRegistry::constant(std::string_view qualified_name
 
 Type& TypeRegistry::make_type() { return storage_.emplace_back(); }
 
-bool TypeRegistry::add_file(const std::filesystem::path& file, Diagnostics& diagnostics, AddText add_text) {
-  const auto cannot_open = [&] {
-    diagnostics.error(SourceLocation{file.string(), 0, 0}, std::string(), "cannot open file");
-    return false;
-  };
-  std::error_code error;
-  const std::filesystem::path canonical = std::filesystem::canonical(file, error);
-  if (error || !std::filesystem::is_regular_file(canonical, error)) return cannot_open();
-  if (std::find(loaded_files_.begin(), loaded_files_.end(), canonical) != loaded_files_.end()) return true;
-  std::ifstream in(canonical, std::ios::binary);
-  if (!in) return cannot_open();
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) return cannot_open();
-  loaded_files_.push_back(canonical);
-  return (this->*add_text)(text.str(), file.string(), diagnostics);
-}
-
-bool TypeRegistry::add_type_file(const std::filesystem::path& file, Diagnostics& diagnostics) {
-  const std::string extension = file.extension().string();
-  if (extension == ".idl") return add_idl_file(file, diagnostics);
-  if (extension == ".lcm") return add_lcm_file(file, diagnostics);
-  if (extension == ".dbc") return add_dbc_file(file, diagnostics);
-  diagnostics.error(SourceLocation{file.string(), 0, 0}, {},
-                    "unknown kind of type file (expected .idl, .lcm or .dbc)");
-  return false;
-}
-
 namespace {
 constexpr std::uint64_t kLayoutLimit = 0xFFFFFFFFu;
 std::uint64_t align_to(std::uint64_t value, std::uint64_t align) { return (value + align - 1) / align * align; }
@@ -521,8 +488,8 @@ const Type* TypeRegistry::string_of(std::uint32_t bound) {
   return &type;
 }
 
-const Type* TypeRegistry::declare_struct(const std::string& qualified_name, std::vector<Field> fields,
-                                         const SourceLocation& where, Diagnostics& diagnostics) {
+Type* TypeRegistry::declare_struct(const std::string& qualified_name, std::vector<Field> fields,
+                                   const SourceLocation& where, Diagnostics& diagnostics) {
   if (by_name_.count(qualified_name) != 0) {
     diagnostics.error(where, {}, "redefinition of '" + qualified_name + "'");
     return nullptr;
@@ -545,6 +512,30 @@ const Type* TypeRegistry::declare_struct(const std::string& qualified_name, std:
 void TypeRegistry::declare(Type& type) {
   by_name_.emplace(type.name, &type);
   declared_.push_back(&type);
+}
+
+void TypeRegistry::add_anonymous(Type& type) { anonymous_.emplace(type.name, &type); }
+
+const Type* TypeRegistry::find_exact(std::string_view name) const noexcept {
+  auto it = by_name_.find(name);
+  return it == by_name_.end() ? nullptr : it->second;
+}
+
+const Type* TypeRegistry::find_anonymous(std::string_view name) const noexcept {
+  auto it = anonymous_.find(name);
+  return it == anonymous_.end() ? nullptr : it->second;
+}
+
+void TypeRegistry::set_constant(std::string qualified_name, ConstValue value) {
+  constants_.insert_or_assign(std::move(qualified_name), std::move(value));
+}
+
+bool TypeRegistry::has_module(std::string_view qualified_name) const noexcept {
+  return modules_.contains(qualified_name);
+}
+
+void TypeRegistry::add_module(const std::string& qualified_name, const SourceLocation& where) {
+  modules_.emplace(qualified_name, where);
 }
 
 std::string sample_to_json(const Type& type, const std::byte* sample, std::size_t size) {

@@ -1,10 +1,10 @@
 // DBC files as a type source: the frame layout of every CAN message a DBC file declares.
 //
-// TypeRegistry::add_dbc_file (dbc_parser.cpp) turns each message into a struct type named
-// "<db>::<Message>" (<db> = the file stem as an identifier) with one `double` field per
-// signal, in declaration order, holding the physical value (raw * factor + offset). The
-// type's `dbc` member points at the DbcMessage below, which make_dbc_codec (dbc_codec.cpp)
-// uses to pack and unpack frames. Everything here is built once at load time and immutable
+// parse_dbc (dbc_parser.hpp), behind TypeRegistry::add_dbc_file, turns each message into a
+// struct type named "<db>::<Message>" (<db> = the file stem as an identifier) with one
+// `double` field per signal, in declaration order, holding the physical value (raw * factor
+// + offset). The type's `dbc` member points at the DbcMessage below, which make_dbc_codec
+// (dbc_codec.cpp) uses to pack and unpack frames. Everything here is built once at load time and immutable
 // afterwards; the registry keeps it alive (TypeRegistry::retain).
 //
 // Multiplexed messages are flat too: every signal is a field. The multiplexer (`M`) field

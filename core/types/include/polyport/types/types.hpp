@@ -110,7 +110,7 @@ class TypeRegistry {
   // error may still be registered). A file already added (same canonical path) is skipped.
   bool add_idl_file(const std::filesystem::path& file, Diagnostics& diagnostics);
   bool add_idl_text(std::string_view text, const std::string& file_name, Diagnostics& diagnostics);
-  // LCM type files (lcm_parser.cpp) and DBC files (dbc_parser.cpp), same contract.
+  // LCM type files (lcm_parser.hpp) and DBC files (dbc_parser.hpp), same contract.
   bool add_lcm_file(const std::filesystem::path& file, Diagnostics& diagnostics);
   bool add_lcm_text(std::string_view text, const std::string& file_name, Diagnostics& diagnostics);
   bool add_dbc_file(const std::filesystem::path& file, Diagnostics& diagnostics);
@@ -139,18 +139,44 @@ class TypeRegistry {
   const Type* string_of(std::uint32_t bound);                         // 0: unbounded
   // Lays out a struct of these fields (their offsets are computed) and registers it under
   // `qualified_name`. Reports and returns null when the name is taken or it is too large.
-  const Type* declare_struct(const std::string& qualified_name, std::vector<Field> fields,
-                             const SourceLocation& where, Diagnostics& diagnostics);
+  // The caller may still set format-specific facts (origin, fingerprint) on the new type
+  // before it hands the registry to anyone else.
+  Type* declare_struct(const std::string& qualified_name, std::vector<Field> fields,
+                       const SourceLocation& where, Diagnostics& diagnostics);
   // Computes field offsets, size and alignment of a struct by the layout rules above.
   static bool layout_struct(Type& type) noexcept;
 
+  // The building blocks the type-file parsers (idl_parser.hpp, lcm_parser.hpp,
+  // dbc_parser.hpp) register what they read with. A parser fills in a Type from make_type()
+  // and then publishes it with declare() or add_anonymous(). Neither checks anything: the
+  // parser reports a name already taken (find_exact, constant, has_module) or a type that
+  // is too large, as declare_struct does for its caller.
+  //
+  // A new Type owned by the registry, at an address that never changes. Unpublished, it is
+  // found by nothing.
+  Type& make_type();
+  // Publishes a named type (struct, enum, typedef) under type.name: find() and declared()
+  // see it from now on.
+  void declare(Type& type);
+  // Publishes an anonymous type under type.name, its IDL spelling ("double[3]"), so that
+  // every later use of the spelling shares it (array_of, sequence_of and string_of too).
+  void add_anonymous(Type& type);
+  // The primitive or declared type registered under exactly `name`: unlike find(), no
+  // leading "::", no other spellings of the primitives ("int32") and no LCM dots.
+  const Type* find_exact(std::string_view name) const noexcept;
+  // The anonymous type with this IDL spelling, if one was published.
+  const Type* find_anonymous(std::string_view name) const noexcept;
+  // Defines a constant (qualified name without a leading "::"), replacing one of that name.
+  void set_constant(std::string qualified_name, ConstValue value);
+  // IDL modules by qualified name, so that a module and a type or constant cannot share a
+  // name. A module opened again keeps the location of its first declaration.
+  bool has_module(std::string_view qualified_name) const noexcept;
+  void add_module(const std::string& qualified_name, const SourceLocation& where);
+
  private:
-  friend class IdlParser;
-  Type& make_type();  // stable address; owned by the registry
   // Reads a type file once (by canonical path) and hands its text to one of add_*_text.
   using AddText = bool (TypeRegistry::*)(std::string_view, const std::string&, Diagnostics&);
   bool add_file(const std::filesystem::path& file, Diagnostics& diagnostics, AddText add_text);
-  void declare(Type& type);
 
   std::deque<Type> storage_;
   std::vector<std::shared_ptr<const void>> retained_;

@@ -1,0 +1,172 @@
+// The DBC lexer: splits a DBC file into identifiers, numbers, strings and punctuation,
+// marking the first token of each line (statements start a line; recovery relies on it).
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "dbc_lexer.hpp"
+
+namespace polyport::dbc_detail {
+
+std::string describe(const Token& token) {
+  switch (token.kind) {
+    case TokenKind::end: return "end of file";
+    case TokenKind::string: return "a string";
+    default: return "'" + std::string(token.text) + "'";
+  }
+}
+
+std::string hex(std::uint64_t value) {
+  char buffer[24];
+  std::snprintf(buffer, sizeof buffer, "0x%llX", static_cast<unsigned long long>(value));
+  return buffer;
+}
+
+namespace {
+
+class Lexer {
+ public:
+  Lexer(std::string_view text, std::vector<Problem>& problems) : text_(text), problems_(problems) {}
+
+  std::vector<Token> run() {
+    std::vector<Token> tokens;
+    if (text_.substr(0, 3) == "\xEF\xBB\xBF") advance(3);  // UTF-8 byte order mark
+    while (pos_ < text_.size()) {
+      const char c = text_[pos_];
+      if (c == '\n') {
+        ++pos_;
+        ++line_;
+        column_ = 1;
+        line_has_token_ = false;
+      } else if (c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f') {
+        advance(1);
+      } else if (c == '/' && peek(1) == '/') {  // not in the DBC spec, but tools write them
+        while (pos_ < text_.size() && text_[pos_] != '\n') advance(1);
+      } else if (c == '"') {
+        tokens.push_back(string_token());
+      } else if (is_identifier_start(c)) {
+        Token token = start(TokenKind::identifier);
+        const std::size_t begin = pos_;
+        while (pos_ < text_.size() && is_identifier_char(text_[pos_])) advance(1);
+        token.text = text_.substr(begin, pos_ - begin);
+        tokens.push_back(std::move(token));
+      } else if (starts_number()) {
+        tokens.push_back(number_token());
+      } else if (std::string_view(":;|@()[],+-").find(c) != std::string_view::npos) {
+        Token token = start(TokenKind::punct);
+        token.text = text_.substr(pos_, 1);
+        advance(1);
+        tokens.push_back(std::move(token));
+      } else {
+        const auto byte = static_cast<unsigned char>(c);
+        std::string shown = byte >= 0x20 && byte < 0x7F ? "'" + std::string(1, c) + "'"
+                                                        : "byte " + hex(byte);
+        problems_.push_back({line_, column_, Severity::error, "unexpected character " + shown});
+        advance(1);
+      }
+    }
+    Token end;
+    end.line = line_;
+    end.column = column_;
+    end.first_on_line = true;
+    tokens.push_back(std::move(end));
+    return tokens;
+  }
+
+ private:
+  char peek(std::size_t ahead) const {
+    return pos_ + ahead < text_.size() ? text_[pos_ + ahead] : '\0';
+  }
+  void advance(std::size_t count) {
+    pos_ += count;
+    column_ += static_cast<std::uint32_t>(count);
+  }
+  Token start(TokenKind kind) {
+    Token token;
+    token.kind = kind;
+    token.line = line_;
+    token.column = column_;
+    token.first_on_line = !line_has_token_;
+    line_has_token_ = true;
+    return token;
+  }
+
+  // A sign belongs to a number only when a digit follows, so `@1-` stays punctuation.
+  bool starts_number() const {
+    std::size_t at = 0;
+    if (peek(0) == '+' || peek(0) == '-') at = 1;
+    if (is_digit(peek(at))) return true;
+    return peek(at) == '.' && is_digit(peek(at + 1));
+  }
+
+  Token number_token() {
+    Token token = start(TokenKind::number);
+    const std::size_t begin = pos_;
+    if (peek(0) == '+' || peek(0) == '-') advance(1);
+    while (is_digit(peek(0))) advance(1);
+    if (peek(0) == '.') {
+      advance(1);
+      while (is_digit(peek(0))) advance(1);
+    }
+    if (peek(0) == 'e' || peek(0) == 'E') {
+      const std::size_t sign = (peek(1) == '+' || peek(1) == '-') ? 1 : 0;
+      if (is_digit(peek(1 + sign))) {
+        advance(1 + sign);
+        while (is_digit(peek(0))) advance(1);
+      }
+    }
+    token.text = text_.substr(begin, pos_ - begin);
+    return token;
+  }
+
+  // DBC strings may span lines; `\"` and `\\` are the only escapes (as Vector's tools and
+  // cantools write them), any other backslash is kept.
+  Token string_token() {
+    Token token = start(TokenKind::string);
+    const std::size_t begin = pos_;
+    advance(1);
+    bool closed = false;
+    while (pos_ < text_.size()) {
+      const char c = text_[pos_];
+      if (c == '"') {
+        advance(1);
+        closed = true;
+        break;
+      }
+      if (c == '\\' && (peek(1) == '"' || peek(1) == '\\')) {
+        token.value += peek(1);
+        advance(2);
+        continue;
+      }
+      token.value += c;
+      if (c == '\n') {
+        ++pos_;
+        ++line_;
+        column_ = 1;
+      } else {
+        advance(1);
+      }
+    }
+    if (!closed) problems_.push_back({token.line, token.column, Severity::error, "unterminated string"});
+    token.text = text_.substr(begin, pos_ - begin);
+    return token;
+  }
+
+  std::string_view text_;
+  std::vector<Problem>& problems_;
+  std::size_t pos_ = 0;
+  std::uint32_t line_ = 1;
+  std::uint32_t column_ = 1;
+  bool line_has_token_ = false;
+};
+
+}  // namespace
+
+std::vector<Token> lex_dbc(std::string_view text, std::vector<Problem>& problems) {
+  return Lexer(text, problems).run();
+}
+
+}  // namespace polyport::dbc_detail

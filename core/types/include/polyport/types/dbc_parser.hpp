@@ -1,0 +1,21 @@
+// The DBC type source: reads a DBC file's text and registers one struct per CAN message in a
+// TypeRegistry, with its frame layout (dbc.hpp), through the registry's public API only.
+// TypeRegistry::add_dbc_file and add_dbc_text (type_files.cpp) call it.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "polyport/base/diagnostics.hpp"
+#include "polyport/types/types.hpp"
+
+namespace polyport {
+
+// Parses DBC text (from `file_name`: its stem names the types' namespace) and registers
+// every message without errors as "<db>::<Message>"; the registry keeps the DbcDatabase
+// alive. Problems go to diagnostics as file:line:col, sorted by position (warnings too);
+// returns false if there was any error.
+bool parse_dbc(std::string_view text, const std::string& file_name, TypeRegistry& registry,
+               Diagnostics& diagnostics);
+
+}  // namespace polyport
