@@ -15,7 +15,8 @@ packages=(
   libxml2-utils          # xmllint: shipped profiles are validated against config/polyport.xsd
   cyclonedds-dev cyclonedds-tools   # Cyclone DDS 0.10 and idlc: reference CDR peers in the tests
   libfastrtps-dev libfastcdr-dev fastddsgen  # Fast DDS 2.9, Fast CDR and fastddsgen: reference peers
-  liblcm-dev liblcm-bin  # LCM 1.3 and lcm-gen: reference fingerprints and encodings
+  liblcm-dev liblcm-bin  # LCM 1.3 (the lcm model) and lcm-gen: test peers, reference fingerprints
+  iproute2               # ip: LCM tests route multicast over loopback in their own network namespace
   clang libclang-rt-14-dev  # libFuzzer for the parser and decoder fuzz targets
 )
 
