@@ -17,6 +17,11 @@ packages=(
   libfastrtps-dev libfastcdr-dev fastddsgen  # Fast DDS 2.9, Fast CDR and fastddsgen: reference peers
   liblcm-dev liblcm-bin  # LCM 1.3 and lcm-gen: reference fingerprints and encodings
   clang libclang-rt-14-dev  # libFuzzer for the parser and decoder fuzz targets
+  # The vm tests (scripts/vcan-run installs these itself when missing; here CI has them up front):
+  user-mode-linux        # a Linux kernel run as a process, with CAN modules: the host kernel has no CAN
+  busybox-static         # the UML guest's init: mounts, insmod and ip without dynamic execs
+  can-utils              # candump and cansend: reference peers on vcan
+  iproute2               # ip: vcan links on a host kernel that has them, and the interface tests
 )
 
 missing=()
