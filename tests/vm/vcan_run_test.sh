@@ -1,0 +1,121 @@
+#!/usr/bin/env bash
+# scripts/vcan-run, run from the host as a test calls it. One case per ctest:
+#   vcan_run_test.sh CASE     runs case_CASE (VCAN_RUN: the runner; VCAN_RUN_TEST_BUILD_DIR:
+#                             a writable build tree)
+#   vcan_run_test.sh --list   prints the case names (tests/vm/CMakeLists.txt reads them)
+set -uo pipefail
+
+runner=${VCAN_RUN:-$(cd "$(dirname "$0")/../.." && pwd)/scripts/vcan-run}
+build_dir=${VCAN_RUN_TEST_BUILD_DIR:-$(cd "$(dirname "$0")/../.." && pwd)/build}
+if [ "${1:-}" = --list ]; then
+  sed -n 's/^case_\([a-z0-9_]*\)() {$/\1/p' "$0"
+  exit 0
+fi
+scratch=$(mktemp -d "$build_dir/vcan-run-test.XXXXXX")
+trap 'rm -rf -- "$scratch"' EXIT
+failures=0
+
+# check DESCRIPTION COMMAND...: a failure (and the test's) unless COMMAND succeeds.
+check() {
+  local what=$1
+  shift
+  if "$@"; then echo "ok: $what"; else echo "FAILED: $what"; failures=$((failures + 1)); fi
+}
+
+# run_runner ARGS...: runs the runner; its status in $status, its stdout and stderr in
+# $scratch/out and $scratch/err (and the latter shown).
+run_runner() {
+  "$runner" "$@" > "$scratch/out" 2> "$scratch/err"
+  status=$?
+  echo "vcan-run $* -> status $status"
+  sed 's/^/  stderr: /' "$scratch/err"
+}
+
+case_passes_status_output_and_environment() {
+  local value=$'two\nlines "and" $quotes\''
+  cd "$scratch" || return 1
+  # Each check prints one word that the host then looks for.
+  TEST_VALUE=$value run_runner --interfaces 2 --if can7 -- bash -c '
+    echo "to stdout"; echo "to stderr" >&2
+    [ "$TEST_VALUE" = "$(printf "two\nlines \"and\" \$quotes\x27")" ] && echo environment
+    [ "$PWD" = "'"$scratch"'" ] && echo directory
+    echo written > "'"$scratch"'/from-guest" && echo writable
+    # Only the guest mounts the host read-only (elsewhere this would write to /usr).
+    [ "$VCAN_RUN_IN" != uml ] || touch /usr/vcan-run-must-not-write 2>/dev/null || echo read-only
+    for i in vcan0 vcan1 can7; do ip link show "$i" | grep -q "UP.* mtu 16 " && echo "$i-up"; done
+    echo "in=$VCAN_RUN_IN interfaces=$VCAN_RUN_INTERFACES"
+    exit 7'
+  check "the command's exit status (7)" [ "$status" -eq 7 ]
+  check "stdout is the command's" grep -qx "to stdout" "$scratch/out"
+  check "stderr is the command's" grep -qx "to stderr" "$scratch/err"
+  check "stdout has no stderr line" bash -c '! grep -q "to stderr" "$1"' _ "$scratch/out"
+  local word
+  for word in environment directory writable vcan0-up vcan1-up can7-up; do
+    check "$word" grep -qx "$word" "$scratch/out"
+  done
+  if grep -qx "in=uml.*" "$scratch/out"; then
+    check "the host is read-only in the guest" grep -qx read-only "$scratch/out"
+  fi
+  check "the file written in the guest is on the host" grep -qx written "$scratch/from-guest"
+  check "VCAN_RUN_INTERFACES" grep -q " interfaces=vcan0 vcan1 can7$" "$scratch/out"
+}
+
+case_fd_and_named_interfaces() {
+  run_runner --fd --if can0 --if can1 -- bash -c 'for i in can0 can1; do ip link show "$i" | grep -q "UP.* mtu 72 " && echo "$i-fd"; done; ip link show vcan0 >/dev/null 2>&1 || echo no-vcan0'
+  check "exit status 0" [ "$status" -eq 0 ]
+  check "can0 has the FD MTU" grep -qx can0-fd "$scratch/out"
+  check "can1 has the FD MTU" grep -qx can1-fd "$scratch/out"
+  check "only the named interfaces" grep -qx no-vcan0 "$scratch/out"
+}
+
+case_missing_command_gives_127_and_leaves_nothing_behind() {
+  run_runner -- /nonexistent/command
+  check "status 127" [ "$status" -eq 127 ]
+  # bash names the script that tried to run it, in the runner's private directory (the
+  # host backend has none: nothing to look for then).
+  local run_dir
+  run_dir=$(grep -o '/tmp/vcan-run\.[A-Za-z0-9]*' "$scratch/err" | head -n 1)
+  if [ -n "$run_dir" ]; then
+    check "$run_dir is removed" [ ! -e "$run_dir" ]
+  fi
+}
+
+case_timeout_gives_124() {
+  local start=$SECONDS
+  run_runner --timeout 2 -- sleep 60
+  check "status 124" [ "$status" -eq 124 ]
+  check "stopped well before the command would have ended" [ $((SECONDS - start)) -lt 30 ]
+}
+
+case_says_why_it_cannot_run() {
+  # A kernel that claims the right version, then fails to boot.
+  local fake="$scratch/linux.uml"
+  printf '#!/bin/sh\n[ "$1" = --version ] && { %s --version; exit 0; }\necho "fake kernel: no boot"; exit 1\n' \
+    "$(command -v linux.uml || echo /usr/bin/linux.uml)" > "$fake"
+  chmod +x "$fake"
+  VCAN_RUN_UML=$fake run_runner --backend uml -- true
+  check "status 3" [ "$status" -eq 3 ]
+  check "one line says why" grep -q "^vcan-run: cannot run true: the vcan guest stopped before the command finished" "$scratch/err"
+  check "the guest console is shown" grep -q "fake kernel: no boot" "$scratch/err"
+
+  VCAN_RUN_UML=/nonexistent/linux.uml run_runner --backend uml -- true
+  check "status 3 without a kernel" [ "$status" -eq 3 ]
+  check "it names the missing kernel" grep -q "^vcan-run: cannot run true: VCAN_RUN_UML=/nonexistent/linux.uml is not an executable file" "$scratch/err"
+
+  run_runner --backend host --private -- true
+  check "status 2 for a bad command line" [ "$status" -eq 2 ]
+}
+
+case_netns_backend_on_a_kernel_with_vcan() {
+  # Inside the guest the kernel has vcan and the command is root: what a host with vcan
+  # gets. The inner interfaces are private: the outer vcan0 is not among them.
+  run_runner -- "$runner" --fd --if can5 -- sh -c 'echo "in=$VCAN_RUN_IN"; ip link show can5 | grep -q "UP.* mtu 72 " && echo can5-fd; ip link show vcan0 >/dev/null 2>&1 || echo private; exit 9'
+  check "the inner command's status (9)" [ "$status" -eq 9 ]
+  check "network-namespace backend" grep -qx "in=netns" "$scratch/out"
+  check "can5 with the FD MTU" grep -qx can5-fd "$scratch/out"
+  check "private interfaces" grep -qx private "$scratch/out"
+}
+
+[ $# -eq 1 ] && declare -F "case_$1" >/dev/null || { echo "usage: $0 --list | CASE" >&2; exit 2; }
+"case_$1"
+[ "$failures" -eq 0 ] || { echo "$failures check(s) failed"; exit 1; }
