@@ -16,13 +16,12 @@ packages=(
   cyclonedds-dev cyclonedds-tools   # Cyclone DDS 0.10 and idlc: reference CDR peers in the tests
   libfastrtps-dev libfastcdr-dev fastddsgen  # Fast DDS 2.9, Fast CDR and fastddsgen: reference peers
   liblcm-dev liblcm-bin  # LCM 1.3 (the lcm model) and lcm-gen: test peers, reference fingerprints
-  iproute2               # ip: LCM tests route multicast over loopback in their own network namespace
   clang libclang-rt-14-dev  # libFuzzer for the parser and decoder fuzz targets
   # The vm tests (scripts/vcan-run installs these itself when missing; here CI has them up front):
   user-mode-linux        # a Linux kernel run as a process, with CAN modules: the host kernel has no CAN
   busybox-static         # the UML guest's init: mounts, insmod and ip without dynamic execs
   can-utils              # candump and cansend: reference peers on vcan
-  iproute2               # ip: vcan links on a host kernel that has them, and the interface tests
+  iproute2               # ip: vcan links, the interface tests, and the LCM tests' loopback multicast route
 )
 
 missing=()
