@@ -12,7 +12,8 @@
 //                           finishing a frame (merging copies, zeroing what no step writes)
 //   mapping_rules.cpp       the rules: their paths, conflicts, units, scale and offset
 //   mapping_values.cpp      whole values by name: numbers, enums, strings, arrays,
-//                           sequences, structs; the number conversion kernels
+//                           sequences, structs; LCM length members from their
+//                           sequences' counts; the number conversion kernels
 //   mapping_constants.cpp   constants: a rule's value text into target bytes
 //   mapping_transforms.cpp  linear and affine transforms: vector fields, the Eigen kernels
 #include "polyport/codecs/mapping.hpp"

@@ -98,19 +98,35 @@ bool Compiler::node(const Type& target, std::uint32_t target_offset, const std::
 void Compiler::descend(const Place& target, const Place& source, const Options& options) {
   std::vector<std::string> missing;
   if (target.type->kind == TypeKind::structure) {
+    // LCM length members without a rule of their own are set from their sequences' counts,
+    // after the fields (see map_struct).
+    const std::vector<LengthMember> lengths = length_members(*target.type);
+    std::vector<const LengthMember*> derived;
     for (const Field& field : target.type->fields) {
       const std::string path = join_path(target.path, field.name);
+      const LengthMember* length = length_member(lengths, field.name);
+      if (length != nullptr && length->derived() && exact(path) == nullptr) {
+        derived.push_back(length);
+        continue;
+      }
       if (!node(field.type->resolved(), target.offset + field.offset, path, field_of(source, field.name), options)) {
-        missing.push_back(path);
+        if (length != nullptr) {
+          refuse_length(*length, target, options);
+        } else {
+          missing.push_back(path);
+        }
       }
     }
-  } else {  // an array: a rule path can only go through structs and arrays
-    const Type& element = target.type->element->resolved();
-    for (std::uint32_t i = 0; i < target.type->bound; ++i) {
-      const std::string path = index_path(target.path, i);
-      if (!node(element, target.offset + i * element.size, path, element_of(source, i), options)) {
-        missing.push_back(path);
-      }
+    report_missing(missing, source, options);
+    for (const LengthMember* length : derived) derive_length(*length, target);
+    return;
+  }
+  // An array: a rule path can only go through structs and arrays.
+  const Type& element = target.type->element->resolved();
+  for (std::uint32_t i = 0; i < target.type->bound; ++i) {
+    const std::string path = index_path(target.path, i);
+    if (!node(element, target.offset + i * element.size, path, element_of(source, i), options)) {
+      missing.push_back(path);
     }
   }
   report_missing(missing, source, options);
@@ -198,6 +214,7 @@ void Compiler::finalize(std::vector<Emitted>& steps, std::uint32_t frame_size) c
       case Op::sequence: written.emplace_back(step.dst, step.dst + step.size); break;
       case Op::tail_constant: written.emplace_back(step.dst, step.dst + sizeof(FlatSpan)); break;
       case Op::enum_map: written.emplace_back(step.dst, step.dst + sizeof(std::int32_t)); break;
+      case Op::length: written.emplace_back(step.dst, step.dst + step.size); break;
       case Op::convert:
       case Op::scale:
         for (std::uint32_t k = 0; k < step.count; ++k) {

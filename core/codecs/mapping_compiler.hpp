@@ -3,9 +3,10 @@
 // compile() runs once at load time: it walks the target type, pairs every target field with
 // a source field (by name, or by a rule), checks that each pair can convert, and emits a
 // flat vector of Steps (copy bytes, convert a number, scale, look an enum up, write a
-// constant, copy a string or sequence, apply a matrix). Adjacent copies are merged, and the
-// target bytes no step writes (padding, fields left unset) get explicit zero steps, so
-// run() never has to clear the whole sample first.
+// constant, copy a string or sequence, apply a matrix, set an LCM length member from the
+// count of its sequence). Adjacent copies are merged, and the target bytes no step writes
+// (padding, fields left unset) get explicit zero steps, so run() never has to clear the
+// whole sample first.
 //
 // One class, its parts in several files by responsibility (see the declarations below); this
 // header is what they share: places in a sample, how the fields under a node are mapped, the
@@ -62,6 +63,17 @@ struct PreparedRule {
   Place source;             // copy / transform
   Options options;
   bool ok = false;          // false: its problems are reported, its target is left alone
+};
+
+// An LCM length member of a target struct (Field::length_fields): an integer field that holds
+// the element count of variable-size arrays of the same struct.
+struct LengthMember {
+  const Field* member = nullptr;
+  Num kind = Num::i32;
+  std::vector<const Field*> sequences;  // the fields whose outermost dimension it sizes
+  std::vector<const Field*> nested;     // the fields one of whose inner dimensions it sizes
+  // Whether the mapping sets it from the count (else it is mapped like any other field).
+  bool derived() const { return nested.empty() && !sequences.empty(); }
 };
 
 struct Emitted {
@@ -132,6 +144,13 @@ class Compiler {
                     const Options& options, std::vector<Emitted>& body);
   void map_sequence(const Place& source, const Place& target, const Options& options);
   void map_struct(const Place& source, const Place& target, const Options& options);
+
+  // -- LCM length members (mapping_values.cpp) ---------------------------------------------
+
+  static std::vector<LengthMember> length_members(const Type& target);
+  static const LengthMember* length_member(const std::vector<LengthMember>& members, const std::string& name);
+  void refuse_length(const LengthMember& length, const Place& target, const Options& options);
+  void derive_length(const LengthMember& length, const Place& target);
 
   // -- constants (mapping_constants.cpp) ---------------------------------------------------
 

@@ -174,6 +174,10 @@ enum class Op : std::uint8_t {
   sequence,       // a sequence, bounded or unbounded on either side; body per element
   repeat,         // a fixed array whose elements need a body: count times
   transform,      // y = M x (+ t) on vector fields, through `transform`
+  length,         // an LCM length member := the element count of the target sequence at
+                  // `counted` (already written), through `convert` from uint32; fails when the
+                  // count is above dst_bound (the member's range) or, with `compare`, when it
+                  // differs from what an earlier length step stored (two sequences, one length)
 };
 
 struct Step {
@@ -181,15 +185,16 @@ struct Step {
   bool src_unbounded = false;
   bool dst_unbounded = false;
   bool truncate = false;
+  bool compare = false;          // length: check the stored value instead of storing
   std::uint32_t src = 0;         // offsets in the current frame
   std::uint32_t dst = 0;
   std::uint32_t size = 0;        // bytes (copy, zero, constant); the target region (string,
-                                 // sequence); one target number (convert, scale)
+                                 // sequence); one target number (convert, scale, length)
   std::uint32_t count = 1;       // numbers (convert, scale), elements (repeat), rows (transform)
   std::uint32_t src_stride = 0;  // element sizes (convert, scale, sequence, repeat)
   std::uint32_t dst_stride = 0;
   std::uint32_t src_bound = 0;   // string and sequence bounds; 0 with *_unbounded
-  std::uint32_t dst_bound = 0;
+  std::uint32_t dst_bound = 0;   // length: the largest count the member holds
   std::uint32_t src_first = 0;   // bounded sequences: first element, from the sequence
   std::uint32_t dst_first = 0;
   std::uint32_t dst_align = 1;   // unbounded target sequence: alignment of its tail block
@@ -197,6 +202,7 @@ struct Step {
   std::uint32_t pool = 0;        // first entry in the program's table for this step
   std::uint32_t pool_count = 0;  // entries (enum pairs, chars) or columns (transform)
   std::uint32_t elements = 0;    // transform: first VectorElement
+  std::uint32_t counted = 0;     // length: the target sequence, an offset in the *target* frame
   double scale = 1.0;
   double offset = 0.0;
   ConvertFn convert = nullptr;
@@ -237,6 +243,7 @@ class CompiledMapping final : public MappingProgram {
   inline bool run_string(const Step& step, const std::byte* src, std::byte* dst, State& state) const noexcept;
   inline bool run_sequence(const Step* step, const std::byte* src, std::byte* dst, std::uint32_t dst_frame,
                            State& state) const noexcept;
+  static inline bool run_length(const Step& step, std::byte* dst, std::uint32_t dst_frame, State& state) noexcept;
   inline bool run_steps(const Step* first, const Step* last, std::uint32_t src_frame, std::uint32_t dst_frame,
                         State& state) const noexcept;
 

@@ -130,6 +130,24 @@ inline bool CompiledMapping::run_sequence(const Step* step, const std::byte* src
   return true;
 }
 
+// An LCM length member from the element count of a target sequence of the same struct, which
+// an earlier step of this frame has written: a bounded one holds its count first, an unbounded
+// one in its FlatSpan. A count beyond the member's range fails rather than wrap (the LCM codec
+// would refuse the sample anyway, with less to say); a second sequence sized by the same
+// member must have the same count.
+inline bool CompiledMapping::run_length(const Step& step, std::byte* dst, std::uint32_t dst_frame,
+                                        State& state) noexcept {
+  const std::byte* sequence = state.target + dst_frame + step.counted;
+  const std::uint32_t count =
+      step.dst_unbounded ? load<FlatSpan>(sequence).count : load<std::uint32_t>(sequence);
+  if (count > step.dst_bound) return false;
+  std::byte value[sizeof(std::uint64_t)];
+  step.convert(reinterpret_cast<const std::byte*>(&count), value, 1, 0, 0);
+  if (step.compare) return std::memcmp(value, dst, step.size) == 0;
+  std::memcpy(dst, value, step.size);
+  return true;
+}
+
 inline bool CompiledMapping::run_steps(const Step* first, const Step* last, std::uint32_t src_frame,
                                        std::uint32_t dst_frame, State& state) const noexcept {
   for (const Step* step = first; step != last; step += 1 + step->body) {
@@ -196,6 +214,9 @@ inline bool CompiledMapping::run_steps(const Step* first, const Step* last, std:
       }
       case Op::transform:
         step->transform(src, dst, numbers_.data() + step->pool, elements_.data() + step->elements);
+        break;
+      case Op::length:
+        if (!run_length(*step, dst, dst_frame, state)) return false;
         break;
     }
   }

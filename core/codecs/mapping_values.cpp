@@ -1,7 +1,8 @@
 // Mapping whole values by name (mapping_compiler.hpp), below the last rule: a byte copy where
 // the layouts agree, else numbers converted or scaled, enums by enumerator name, strings and
 // sequences with their bounds checked, arrays and structs element by element and field by
-// field. Runs at load time.
+// field; the length members of LCM target structs set from their sequences' counts. Runs at
+// load time.
 //
 // Also the number conversion kernels, one per (source, target) number kind, that map_numbers
 // picks at load time: the steps call them on the forwarding path, through Step::convert and
@@ -12,6 +13,7 @@
 #include <charconv>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -352,18 +354,123 @@ void Compiler::map_sequence(const Place& source, const Place& target, const Opti
 }
 
 void Compiler::map_struct(const Place& source, const Place& target, const Options& options) {
+  const std::vector<LengthMember> lengths = length_members(*target.type);
+  std::vector<const LengthMember*> derived;
   std::vector<std::string> missing;
   for (const Field& field : target.type->fields) {
+    const LengthMember* length = length_member(lengths, field.name);
+    if (length != nullptr && length->derived()) {
+      // Set from the count below, even when the source has a field of its name: that field
+      // says what the source claims, the count what the target really holds.
+      derived.push_back(length);
+      continue;
+    }
     const Place child = field_of(source, field.name);
     const Place target_child{&field.type->resolved(), target.offset + field.offset,
                              join_path(target.path, field.name)};
     if (child.type == nullptr) {
-      missing.push_back(target_child.path);
+      if (length != nullptr) {
+        refuse_length(*length, target, options);
+      } else {
+        missing.push_back(target_child.path);
+      }
       continue;
     }
     map_value(child, target_child, options);
   }
   report_missing(missing, source, options);
+  // After every field, so the sequences they count are written when they run.
+  for (const LengthMember* length : derived) derive_length(*length, target);
+}
+
+// -- LCM length members ------------------------------------------------------------------
+//
+// An LCM variable-size array `double samples[nsamples]` is a sequence whose length the message
+// also carries in an earlier integer member, and the LCM codec refuses a sample where the two
+// disagree. So when the target is such a struct, the mapping does not copy that member from
+// the source (a source of another format has no such member, and one that has it may claim a
+// count its sequence does not have): it sets it from the element count of the target sequence
+// once that is written, checking that the count fits the member's type (int8_t holds at most
+// 127) and, when several sequences share the member, that their counts agree. A failed check
+// fails run(), as a sequence too long for a bounded target does. A rule for the member is kept
+// as written (the LCM codec then checks it). Only outermost dimensions are counted: a member
+// that sizes an inner one (`double m[n][k]`'s k, `boolean bits[2][m]`'s m) is mapped like any
+// other field, and is an error without a source.
+
+std::vector<LengthMember> Compiler::length_members(const Type& target) {
+  std::vector<LengthMember> members;
+  for (const Field& field : target.fields) {
+    for (std::size_t level = 0; level < field.length_fields.size(); ++level) {
+      const Field* member = target.find_field(field.length_fields[level]);
+      if (member == nullptr || member == &field || member->type == nullptr) continue;
+      const auto kind = number_kind(member->type->resolved().kind);
+      if (!kind || is_float(*kind)) continue;  // the LCM parser allows only integers
+      auto found = std::find_if(members.begin(), members.end(),
+                                [&](const LengthMember& length) { return length.member == member; });
+      if (found == members.end()) {
+        members.push_back(LengthMember{member, *kind, {}, {}});
+        found = members.end() - 1;
+      }
+      const bool outermost = level == 0 && field.type->resolved().kind == TypeKind::sequence;
+      auto& uses = outermost ? found->sequences : found->nested;
+      if (std::find(uses.begin(), uses.end(), &field) == uses.end()) uses.push_back(&field);
+    }
+  }
+  return members;
+}
+
+const LengthMember* Compiler::length_member(const std::vector<LengthMember>& members, const std::string& name) {
+  for (const LengthMember& length : members) {
+    if (length.member->name == name) return &length;
+  }
+  return nullptr;
+}
+
+void Compiler::refuse_length(const LengthMember& length, const Place& target, const Options& options) {
+  std::vector<std::string> names;
+  for (const Field* field : length.nested) names.push_back(in_quotes(join_path(target.path, field->name)));
+  const std::string member = in_quotes(join_path(target.path, length.member->name));
+  problem(options.rule, "target field " + member + " of " + in_quotes(to_.name) + " has no source in " +
+                            in_quotes(from_.name) + " and is not derived: it is the length of an inner dimension of " +
+                            join(names, ", ") + ", and a mapping counts only outermost ones (give it a rule or a " +
+                            "source field of its name)");
+}
+
+void Compiler::derive_length(const LengthMember& length, const Place& target) {
+  const std::string member = join_path(target.path, length.member->name);
+  const std::uint64_t range = with_number(length.kind, [](auto t) {
+    return static_cast<std::uint64_t>(std::numeric_limits<typename decltype(t)::type>::max());
+  });
+  constexpr std::uint64_t kMaxCount = std::numeric_limits<std::uint32_t>::max();
+  const auto largest = static_cast<std::uint32_t>(std::min(range, kMaxCount));
+  for (std::size_t i = 0; i < length.sequences.size(); ++i) {
+    const Field& sequence = *length.sequences[i];
+    const Type& sequence_type = sequence.type->resolved();
+    Step step;
+    step.op = Op::length;
+    step.dst = target.offset + length.member->offset;
+    step.size = number_size(length.kind);
+    step.counted = target.offset + sequence.offset;
+    step.dst_unbounded = sequence_type.bound == 0;
+    step.dst_bound = largest;
+    step.compare = i > 0;
+    step.convert = pick_converter(Num::u32, length.kind);
+    // The most elements the sequence can get: its bound, the bound of the source the step that
+    // writes it reads, and what a sample (at most 4 GiB) can hold of its elements.
+    std::uint64_t most = kMaxCount / std::max<std::uint32_t>(1, sequence_type.element->size);
+    if (sequence_type.bound != 0) most = std::min<std::uint64_t>(most, sequence_type.bound);
+    for (std::size_t k = 0; k < out_->size(); k += 1 + (*out_)[k].step.body) {
+      const Step& writer = (*out_)[k].step;
+      if (writer.op == Op::sequence && writer.dst == step.counted && !writer.src_unbounded) {
+        most = std::min<std::uint64_t>(most, writer.src_bound);
+      }
+    }
+    const std::string counted = "count(" + join_path(target.path, sequence.name) + ")";
+    std::string note = step.compare ? "check " + member + " == " + counted + ", fails if they differ"
+                                    : member + " = " + counted;
+    if (most > largest) note += ", fails above " + std::to_string(largest);
+    emit(step, note);
+  }
 }
 
 }  // namespace polyport::mapping

@@ -146,5 +146,63 @@ TEST_F(MappingAllocations, CountingWorks) {
   EXPECT_GT(allocations() - before, 0u);
 }
 
+// LCM length members set from their sequences' counts (Op::length), including runs that fail
+// because a count does not fit an int8_t length.
+TEST(MappingAllocationsLcm, DerivedLengthsAllocateNothing) {
+  TypeRegistry types;
+  Diagnostics diagnostics;
+  ASSERT_TRUE(types.add_idl_text(
+      "module p { struct Pose { long id; sequence<double, 8> samples; sequence<octet> data; }; };\n", "p.idl",
+      diagnostics));
+  ASSERT_TRUE(types.add_lcm_text("package p;\nstruct pose_t { int32_t id; int32_t nsamples; double samples[nsamples];\n"
+                                 "  int8_t n; byte data[n]; }\n",
+                                 "p.lcm", diagnostics));
+  const Type* from = types.find("p::Pose");
+  const Type* to = types.find("p::pose_t");
+  ASSERT_NE(from, nullptr);
+  ASSERT_NE(to, nullptr);
+  std::vector<MappingProblem> problems;
+  const auto program = MappingProgram::compile(*from, *to, MappingSpec{}, problems);
+  ASSERT_NE(program, nullptr) << (problems.empty() ? "" : problems.front().message);
+
+  std::vector<std::byte> source(512, std::byte{0});
+  const std::uint32_t samples = from->find_field("samples")->offset;
+  const std::uint32_t data = from->find_field("data")->offset;
+  const std::uint32_t three = 3;
+  std::memcpy(source.data() + samples, &three, sizeof three);
+  const FlatSpan four{256, 4};
+  std::memcpy(source.data() + data, &four, sizeof four);
+  std::vector<std::byte> too_long = source;
+  const FlatSpan many{256, 200};
+  std::memcpy(too_long.data() + data, &many, sizeof many);
+
+  std::vector<std::byte> target(1024);
+  std::uint32_t size = 0;
+  ASSERT_TRUE(program->run(source.data(), static_cast<std::uint32_t>(source.size()), target.data(),
+                           static_cast<std::uint32_t>(target.size()), size));
+  const std::uint64_t before = allocations();
+  std::uint64_t failures = 0;
+  for (int i = 0; i < 10'000; ++i) {
+    if (!program->run(source.data(), static_cast<std::uint32_t>(source.size()), target.data(),
+                      static_cast<std::uint32_t>(target.size()), size)) {
+      ++failures;
+    }
+    if (program->run(too_long.data(), static_cast<std::uint32_t>(too_long.size()), target.data(),
+                     static_cast<std::uint32_t>(target.size()), size)) {
+      ++failures;
+    }
+  }
+  EXPECT_EQ(allocations() - before, 0u);
+  EXPECT_EQ(failures, 0u);
+  ASSERT_TRUE(program->run(source.data(), static_cast<std::uint32_t>(source.size()), target.data(),
+                           static_cast<std::uint32_t>(target.size()), size));
+  std::int32_t nsamples = 0;
+  std::int8_t n = 0;
+  std::memcpy(&nsamples, target.data() + to->find_field("nsamples")->offset, sizeof nsamples);
+  std::memcpy(&n, target.data() + to->find_field("n")->offset, sizeof n);
+  EXPECT_EQ(nsamples, 3);
+  EXPECT_EQ(n, 4);
+}
+
 }  // namespace
 }  // namespace polyport

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "polyport/base/diagnostics.hpp"
+#include "polyport/codecs/codec.hpp"
 #include "polyport/types/types.hpp"
 
 namespace {
@@ -92,6 +93,13 @@ class MappingFixture : public ::testing::Test {
     Diagnostics diagnostics;
     const std::string file = "mapping" + std::to_string(++files_) + ".idl";
     ASSERT_TRUE(types_.add_idl_text(idl, file, diagnostics))
+        << (diagnostics.all().empty() ? "" : diagnostics.all().front().to_string());
+  }
+
+  void define_lcm(std::string_view lcm) {
+    Diagnostics diagnostics;
+    const std::string file = "mapping" + std::to_string(++files_) + ".lcm";
+    ASSERT_TRUE(types_.add_lcm_text(lcm, file, diagnostics))
         << (diagnostics.all().empty() ? "" : diagnostics.all().front().to_string());
   }
 
@@ -952,6 +960,241 @@ TEST_F(MappingRun, DescribeListsTheStepsInWords) {
                 "linear 2x2 transform (v -> w)",
                 "constant '3' -> @48 (k)",
             }));
+}
+
+// ---------------------------------------------------------------------------------------
+// LCM length members: `int32_t nsamples; double samples[nsamples];` in a target struct is set
+// from the count of the target sequence, whatever the source has.
+
+class MappingLcmLengths : public MappingFixture {
+ protected:
+  void SetUp() override {
+    // As tests/dds_peers/peer.idl and tests/lcm_e2e/lcm/peer.lcm declare them.
+    define("module peer { struct Pose { long id; double x; float heading; boolean valid; string<15> frame;\n"
+           "  sequence<double, 8> samples; short quad[4]; }; };\n");
+    define_lcm("package peer;\n"
+               "struct pose_t { int32_t id; double x; float heading; boolean valid; string frame;\n"
+               "  int32_t nsamples; double samples[nsamples]; int16_t quad[4]; }\n");
+  }
+
+  // A peer::Pose with `count` samples 0.5, 1.0, ...
+  Sample pose(std::uint32_t count) {
+    Sample source(type("peer::Pose").size, std::byte{0});
+    source.set(at("peer::Pose", "id"), std::int32_t{7});
+    source.set(at("peer::Pose", "x"), 1.25);
+    source.set(at("peer::Pose", "heading"), 0.5f);
+    source.set(at("peer::Pose", "valid"), std::uint8_t{1});
+    source.set_text(at("peer::Pose", "frame"), "map");
+    const std::uint32_t samples = at("peer::Pose", "samples");
+    source.set(samples, count);
+    for (std::uint32_t i = 0; i < count; ++i) source.set(samples + 8 + 8 * i, 0.5 * (i + 1));
+    for (std::uint32_t i = 0; i < 4; ++i) {
+      source.set(at("peer::Pose", "quad") + 2 * i, static_cast<std::int16_t>(static_cast<int>(i) - 2));
+    }
+    return source;
+  }
+
+  std::unique_ptr<Codec> lcm_codec(std::string_view name) {
+    auto made = make_lcm_codec(type(name));
+    if (!made.ok()) {
+      ADD_FAILURE() << made.error().message;
+      return nullptr;
+    }
+    return std::move(made).value();
+  }
+
+  // Encodes a flat sample of `name` (of last_size_ bytes) with the LCM codec and decodes it
+  // back; the decoded sample, or an empty one when either fails.
+  Sample through_lcm(std::string_view name, const Sample& flat) {
+    const auto codec = lcm_codec(name);
+    if (codec == nullptr) return Sample(0);
+    std::vector<std::byte> wire(codec->max_wire_size(last_size_));
+    const CodecResult encoded =
+        codec->encode(flat.data(), last_size_, wire.data(), static_cast<std::uint32_t>(wire.size()));
+    EXPECT_TRUE(encoded.ok()) << to_string(encoded.error);
+    if (!encoded.ok()) return Sample(0);
+    Sample decoded(1024, std::byte{0});
+    const CodecResult result = codec->decode(wire.data(), encoded.size, decoded.data(), decoded.size());
+    EXPECT_TRUE(result.ok()) << to_string(result.error);
+    if (!result.ok()) return Sample(0);
+    return decoded;
+  }
+
+  std::vector<double> doubles(const Sample& sample, FlatSpan span) {
+    std::vector<double> out;
+    for (std::uint32_t i = 0; i < span.count; ++i) out.push_back(sample.get<double>(span.offset + 8 * i));
+    return out;
+  }
+};
+
+TEST_F(MappingLcmLengths, AnIdlPoseOntoAnLcmPoseCountsItsSamples) {
+  const auto program = compile_ok("peer::Pose", "peer::pose_t");
+  ASSERT_NE(program, nullptr);
+  const auto described = program->describe();
+  EXPECT_NE(std::find(described.begin(), described.end(), "nsamples = count(samples)"), described.end())
+      << ::testing::PrintToString(described);
+  for (const std::uint32_t count : {0u, 1u, 8u}) {
+    SCOPED_TRACE("count " + std::to_string(count));
+    const Sample target = run(*program, "peer::pose_t", pose(count), 256);
+    EXPECT_EQ(target.get<std::int32_t>(at("peer::pose_t", "nsamples")), static_cast<std::int32_t>(count));
+    const auto samples = target.get<FlatSpan>(at("peer::pose_t", "samples"));
+    ASSERT_EQ(samples.count, count);
+    std::vector<double> expected;
+    for (std::uint32_t i = 0; i < count; ++i) expected.push_back(0.5 * (i + 1));
+    EXPECT_EQ(doubles(target, samples), expected);
+
+    // The LCM codec accepts it (it refuses a length member that disagrees with the count),
+    // and the message decodes to the same values.
+    const Sample decoded = through_lcm("peer::pose_t", target);
+    if (decoded.size() == 0) continue;
+    EXPECT_EQ(decoded.get<std::int32_t>(at("peer::pose_t", "id")), 7);
+    EXPECT_EQ(decoded.get<double>(at("peer::pose_t", "x")), 1.25);
+    EXPECT_EQ(decoded.get<float>(at("peer::pose_t", "heading")), 0.5f);
+    EXPECT_EQ(decoded.get<std::uint8_t>(at("peer::pose_t", "valid")), 1);
+    const auto frame = decoded.get<FlatSpan>(at("peer::pose_t", "frame"));
+    EXPECT_EQ(decoded.text(frame.offset, frame.count), "map");
+    EXPECT_EQ(decoded.get<std::int32_t>(at("peer::pose_t", "nsamples")), static_cast<std::int32_t>(count));
+    EXPECT_EQ(doubles(decoded, decoded.get<FlatSpan>(at("peer::pose_t", "samples"))), expected);
+    for (std::uint32_t i = 0; i < 4; ++i) {
+      EXPECT_EQ(decoded.get<std::int16_t>(at("peer::pose_t", "quad") + 2 * i), static_cast<std::int16_t>(static_cast<int>(i) - 2));
+    }
+  }
+}
+
+TEST_F(MappingLcmLengths, TheCountWinsOverASourceFieldOfTheSameNameButNotOverARule) {
+  define("module other { struct Pose { long nsamples; sequence<double> samples; }; };\n");
+  define_lcm("package other;\nstruct pose_t { int32_t nsamples; double samples[nsamples]; }\n");
+  Sample source(64, std::byte{0});
+  source.set(at("other::Pose", "nsamples"), std::int32_t{5});  // what the source claims
+  source.set(at("other::Pose", "samples"), FlatSpan{32, 2});
+  source.set(32, 1.0);
+  source.set(40, 2.0);
+  const auto by_name = compile_ok("other::Pose", "other::pose_t");
+  ASSERT_NE(by_name, nullptr);
+  EXPECT_EQ(run(*by_name, "other::pose_t", source, 64).get<std::int32_t>(at("other::pose_t", "nsamples")), 2);
+
+  // A rule for the member is kept as written (the LCM codec then checks it).
+  const auto ruled = compile_ok("other::Pose", "other::pose_t", spec_of({constant_rule("nsamples", "3")}));
+  ASSERT_NE(ruled, nullptr);
+  EXPECT_EQ(run(*ruled, "other::pose_t", source, 64).get<std::int32_t>(at("other::pose_t", "nsamples")), 3);
+}
+
+TEST_F(MappingLcmLengths, ThroughRulesAndInsideSequencesOfStructs) {
+  define("module peer { struct Readings { sequence<double, 8> values; long id; };\n"
+         "  struct Track { long id; sequence<Pose> poses; }; };\n");
+  define_lcm("package peer;\nstruct track_t { int32_t id; int16_t n; pose_t poses[n]; }\n");
+
+  // A rule renames the sequence; by_name="false" leaves the rest zero; the length follows.
+  const auto renamed = compile_ok("peer::Readings", "peer::pose_t",
+                                  spec_of({copy_rule("samples", "values"), copy_rule("id", "id")}, false));
+  ASSERT_NE(renamed, nullptr);
+  Sample readings(type("peer::Readings").size, std::byte{0});
+  readings.set(at("peer::Readings", "values"), std::uint32_t{3});
+  for (std::uint32_t i = 0; i < 3; ++i) readings.set(at("peer::Readings", "values") + 8 + 8 * i, 1.0 + i);
+  const Sample target = run(*renamed, "peer::pose_t", readings, 256);
+  EXPECT_EQ(target.get<std::int32_t>(at("peer::pose_t", "nsamples")), 3);
+  EXPECT_EQ(target.get<FlatSpan>(at("peer::pose_t", "samples")).count, 3u);
+  EXPECT_EQ(through_lcm("peer::pose_t", target).get<std::int32_t>(at("peer::pose_t", "nsamples")), 3);
+
+  // Each element of a sequence of structs counts its own samples, and the outer length its
+  // elements.
+  const auto track = compile_ok("peer::Track", "peer::track_t");
+  ASSERT_NE(track, nullptr);
+  const std::uint32_t pose_size = type("peer::Pose").size;
+  const std::uint32_t first = 64;
+  Sample source(first + 2 * pose_size, std::byte{0});
+  source.set(at("peer::Track", "poses"), FlatSpan{first, 2});
+  for (std::uint32_t i = 0; i < 2; ++i) {
+    const Sample element = pose(i == 0 ? 2 : 5);
+    std::memcpy(source.data() + first + i * pose_size, element.data(), pose_size);
+  }
+  const Sample tracked = run(*track, "peer::track_t", source, 1024);
+  EXPECT_EQ(tracked.get<std::int16_t>(at("peer::track_t", "n")), 2);
+  const auto poses = tracked.get<FlatSpan>(at("peer::track_t", "poses"));
+  ASSERT_EQ(poses.count, 2u);
+  for (std::uint32_t i = 0; i < 2; ++i) {
+    const std::uint32_t element = poses.offset + i * type("peer::pose_t").size;
+    EXPECT_EQ(tracked.get<std::int32_t>(element + at("peer::pose_t", "nsamples")), i == 0 ? 2 : 5);
+    EXPECT_EQ(tracked.get<FlatSpan>(element + at("peer::pose_t", "samples")).count, i == 0 ? 2u : 5u);
+  }
+  const Sample decoded = through_lcm("peer::track_t", tracked);
+  if (decoded.size() != 0) {
+    const auto decoded_poses = decoded.get<FlatSpan>(at("peer::track_t", "poses"));
+    ASSERT_EQ(decoded_poses.count, 2u);
+    const std::uint32_t second = decoded_poses.offset + type("peer::pose_t").size;
+    EXPECT_EQ(doubles(decoded, decoded.get<FlatSpan>(second + at("peer::pose_t", "samples"))),
+              (std::vector<double>{0.5, 1.0, 1.5, 2.0, 2.5}));
+  }
+}
+
+TEST_F(MappingLcmLengths, ACountBeyondTheMembersRangeFailsTheRun) {
+  define("module small { struct Free { sequence<octet> data; }; struct Capped { sequence<octet, 100> data; }; };\n");
+  define_lcm("package small;\nstruct bytes_t { int8_t n; byte data[n]; }\n");
+  const auto free = compile_ok("small::Free", "small::bytes_t");
+  ASSERT_NE(free, nullptr);
+  EXPECT_EQ(free->describe().back(), "n = count(data), fails above 127");
+  for (const std::uint32_t count : {127u, 128u}) {
+    Sample source(8 + count, std::byte{0});
+    source.set(0, FlatSpan{8, count});
+    const Sample target = run(*free, "small::bytes_t", source, 256, count == 127);
+    if (count == 127) {
+      EXPECT_EQ(target.get<std::int8_t>(at("small::bytes_t", "n")), 127);
+    }
+  }
+  // A bound the member holds needs no words about it (the check stays, and never fails).
+  const auto capped = compile_ok("small::Capped", "small::bytes_t");
+  ASSERT_NE(capped, nullptr);
+  EXPECT_EQ(capped->describe().back(), "n = count(data)");
+}
+
+TEST_F(MappingLcmLengths, TwoSequencesOfOneLengthMustAgree) {
+  // The LCM parser lets several arrays share a length member.
+  define("module shared { struct Two { sequence<double> a; sequence<float, 4> b; }; };\n");
+  define_lcm("package shared;\nstruct two_t { int16_t n; double a[n]; float b[n]; }\n");
+  const auto program = compile_ok("shared::Two", "shared::two_t");
+  ASSERT_NE(program, nullptr);
+  const auto described = program->describe();
+  ASSERT_GE(described.size(), 2u);
+  EXPECT_EQ(described[described.size() - 2], "n = count(a), fails above 32767");
+  EXPECT_EQ(described.back(), "check n == count(b), fails if they differ");
+  Sample source(type("shared::Two").size + 32, std::byte{0});
+  source.set(at("shared::Two", "a"), FlatSpan{type("shared::Two").size, 2});
+  source.set(at("shared::Two", "b"), std::uint32_t{2});
+  const Sample target = run(*program, "shared::two_t", source, 256);
+  EXPECT_EQ(target.get<std::int16_t>(at("shared::two_t", "n")), 2);
+  EXPECT_EQ(through_lcm("shared::two_t", target).get<std::int16_t>(at("shared::two_t", "n")), 2);
+  source.set(at("shared::Two", "b"), std::uint32_t{3});
+  run(*program, "shared::two_t", source, 256, false);
+}
+
+TEST_F(MappingLcmLengths, InnerDimensionsAreNotCounted) {
+  define("module grid { typedef sequence<boolean> Flags; struct Grid { sequence<sequence<double>> m; };\n"
+         "  struct Sized { long cols; sequence<sequence<double>> m; }; struct Bits { Flags bits[2]; }; };\n");
+  define_lcm("package grid;\nstruct grid_t { int32_t rows; int32_t cols; double m[rows][cols]; }\n"
+             "struct bits_t { int8_t k; boolean bits[2][k]; }\n");
+  expect_errors("grid::Grid", "grid::grid_t", {},
+                {"target field 'cols' of 'grid::grid_t' has no source in 'grid::Grid' and is not derived: it is the "
+                 "length of an inner dimension of 'm', and a mapping counts only outermost ones (give it a rule or a "
+                 "source field of its name)"});
+  expect_errors("grid::Bits", "grid::bits_t", {},
+                {"target field 'k' of 'grid::bits_t' has no source in 'grid::Bits' and is not derived: it is the "
+                 "length of an inner dimension of 'bits', and a mapping counts only outermost ones (give it a rule "
+                 "or a source field of its name)"});
+  // With a source field of its name it is copied, as any other field (the codec checks it).
+  const auto sized = compile_ok("grid::Sized", "grid::grid_t");
+  ASSERT_NE(sized, nullptr);
+  const auto described = sized->describe();
+  EXPECT_EQ(described.back(), "rows = count(m)");
+  // Under a rule the message is the rule's.
+  define("module grid { struct Outer { Grid g; }; };\n");
+  define_lcm("package grid;\nstruct outer_t { grid_t g; }\n");
+  MappingSpec spec = spec_of({copy_rule("g", "g")}, false);
+  expect_errors("grid::Outer", "grid::outer_t", spec,
+                {"target field 'g.cols' of 'grid::outer_t' has no source in 'grid::Outer' and is not derived: it is "
+                 "the length of an inner dimension of 'g.m', and a mapping counts only outermost ones (give it a "
+                 "rule or a source field of its name)"});
+  ASSERT_EQ(problems_.size(), 1u);
+  EXPECT_NE(problems_[0].rule, nullptr);
 }
 
 }  // namespace
