@@ -1,5 +1,6 @@
 #include "polyport/runtime/model.hpp"
 
+#include "polyport/runtime/component_api.hpp"
 #include "polyport/runtime/service.hpp"
 #include "polyport/types/types.hpp"
 
@@ -12,6 +13,22 @@ std::vector<OperationInfo> operations_of(const PortSpec& spec, const TypeRegistr
                                 op.reply_type.empty() ? nullptr : types.find(op.reply_type), op.oneway});
   }
   return out;
+}
+
+ReturnCode start_stop_command(Interceptor& interceptor, LifecycleCommand command) {
+  switch (command) {
+    case LifecycleCommand::initialize:
+    case LifecycleCommand::activate:
+      return interceptor.start() ? ReturnCode::ok : ReturnCode::error;
+    case LifecycleCommand::deactivate:
+    case LifecycleCommand::finalize:
+      interceptor.stop();
+      return ReturnCode::ok;
+    case LifecycleCommand::reset:
+    case LifecycleCommand::recover:
+      return ReturnCode::unsupported;
+  }
+  return ReturnCode::unsupported;
 }
 
 void ModelRegistry::add(std::unique_ptr<Model> model) { models_.push_back(std::move(model)); }

@@ -91,21 +91,7 @@ void DdsInterceptor::stop() noexcept {
   active_ = false;
 }
 
-ReturnCode DdsInterceptor::command(LifecycleCommand command) {
-  switch (command) {
-    case LifecycleCommand::initialize:
-    case LifecycleCommand::activate:
-      return start() ? ReturnCode::ok : ReturnCode::error;
-    case LifecycleCommand::deactivate:
-    case LifecycleCommand::finalize:
-      stop();
-      return ReturnCode::ok;
-    case LifecycleCommand::reset:
-    case LifecycleCommand::recover:
-      return ReturnCode::unsupported;
-  }
-  return ReturnCode::unsupported;
-}
+ReturnCode DdsInterceptor::command(LifecycleCommand command) { return start_stop_command(*this, command); }
 
 InterceptorStatus DdsInterceptor::status() const {
   // Samples the SDK refused are counted by the connections (dropped_sink_error).

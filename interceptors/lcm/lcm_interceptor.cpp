@@ -92,21 +92,7 @@ void LcmInterceptor::stop() noexcept {
   active_ = false;
 }
 
-ReturnCode LcmInterceptor::command(LifecycleCommand command) {
-  switch (command) {
-    case LifecycleCommand::initialize:
-    case LifecycleCommand::activate:
-      return start() ? ReturnCode::ok : ReturnCode::error;
-    case LifecycleCommand::deactivate:
-    case LifecycleCommand::finalize:
-      stop();
-      return ReturnCode::ok;
-    case LifecycleCommand::reset:
-    case LifecycleCommand::recover:
-      return ReturnCode::unsupported;
-  }
-  return ReturnCode::unsupported;
-}
+ReturnCode LcmInterceptor::command(LifecycleCommand command) { return start_stop_command(*this, command); }
 
 InterceptorStatus LcmInterceptor::status() const { return InterceptorStatus{active_ ? "active" : "inactive", 0, 0}; }
 

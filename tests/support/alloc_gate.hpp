@@ -1,86 +1,16 @@
-// Counting heap allocations on polyport's part of a DDS forwarding path, for one test binary
-// (include it in exactly one source file: it defines malloc and friends). malloc itself is
-// interposed (glibc's entry points), so C code (Cyclone) and C++ code (operator new goes
-// through malloc) are both seen; a thread counts into g_polyport_allocations only while it
-// is inside polyport's part of the path: a CountingDomain wraps a vendor's Domain so that
-// entering polyport's reader callback switches counting on and calling the SDK's write
-// switches it off (and back on when the write returns). g_all_allocations counts everything.
+// The DDS models' edges of polyport's part of the path, for malloc_counter.hpp: a
+// CountingDomain wraps a vendor's Domain so that entering polyport's reader callback switches
+// counting on and calling the SDK's write switches it off (and back on when the write
+// returns). Include it in exactly one source file of a test binary.
 #pragma once
 
-#include <atomic>
-#include <cerrno>
-#include <cstddef>
-#include <cstdint>
 #include <memory>
 
 #include "dds_endpoint.hpp"
 #include "dds_model.hpp"
-
-// Counting at malloc itself (glibc's entry points, interposed), so C code (Cyclone) and C++
-// code (operator new goes through malloc) are both seen.
-extern "C" {
-void* __libc_malloc(std::size_t size);
-void* __libc_calloc(std::size_t count, std::size_t size);
-void* __libc_realloc(void* pointer, std::size_t size);
-void* __libc_memalign(std::size_t alignment, std::size_t size);
-}
+#include "malloc_counter.hpp"
 
 namespace polyport::test {
-std::atomic<std::uint64_t> g_polyport_allocations{0};
-std::atomic<std::uint64_t> g_all_allocations{0};
-std::atomic<std::uint64_t> g_callbacks{0};  // reader callbacks entered
-thread_local bool t_in_polyport = false;
-
-inline void count() noexcept {
-  g_all_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (t_in_polyport) g_polyport_allocations.fetch_add(1, std::memory_order_relaxed);
-}
-}  // namespace polyport::test
-
-extern "C" {
-using polyport::test::count;
-void* malloc(std::size_t size) {
-  count();
-  return __libc_malloc(size);
-}
-void* calloc(std::size_t count_, std::size_t size) {
-  count();
-  return __libc_calloc(count_, size);
-}
-void* realloc(void* pointer, std::size_t size) {
-  count();
-  return __libc_realloc(pointer, size);
-}
-void* aligned_alloc(std::size_t alignment, std::size_t size) {
-  count();
-  return __libc_memalign(alignment, size);
-}
-void* memalign(std::size_t alignment, std::size_t size) {
-  count();
-  return __libc_memalign(alignment, size);
-}
-int posix_memalign(void** out, std::size_t alignment, std::size_t size) {
-  count();
-  void* p = __libc_memalign(alignment, size);
-  if (p == nullptr) return ENOMEM;
-  *out = p;
-  return 0;
-}
-}
-
-namespace polyport::test {
-
-// Marks polyport's part of the path for the counter.
-class Scope {
- public:
-  explicit Scope(bool inside) : previous_(t_in_polyport) { t_in_polyport = inside; }
-  ~Scope() { t_in_polyport = previous_; }
-  Scope(const Scope&) = delete;
-  Scope& operator=(const Scope&) = delete;
-
- private:
-  bool previous_;
-};
 
 class CountingWriter final : public dds::Writer {
  public:

@@ -51,6 +51,11 @@ class Interceptor {
   virtual void describe(nlohmann::json& out) const = 0;
 };
 
+// The lifecycle commands of a foreign component that has none of its own (a DDS or LCM
+// application): initialize and activate start the interceptor, deactivate and finalize stop
+// it, reset and recover are unsupported.
+ReturnCode start_stop_command(Interceptor& interceptor, LifecycleCommand command);
+
 struct Proxy {
   std::unique_ptr<Component> adaptor;
   std::unique_ptr<Interceptor> interceptor;
