@@ -7,8 +7,7 @@
 // appendable members get their defaults, padding and unknown members are dropped, big
 // endian becomes native), but encode(decode(w)) must give w back for a w that encode
 // wrote, and the values must survive the whole trip. Anything else traps.
-// Build by hand: clang++ -std=c++20 -fsanitize=fuzzer,address -I core/include core/src/*.cpp
-//                tests/fuzz/fuzz_cdr_decode.cpp (plus the core's libraries to link)
+// Build with ./scripts/fuzz.sh (clang, -DPOLYPORT_FUZZ=ON, into build-fuzz/).
 #include <cstddef>
 #include <cstdint>
 #include <cstring>

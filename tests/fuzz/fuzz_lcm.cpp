@@ -4,10 +4,8 @@
 //  (b) as a message for a struct with every LCM construct. A message that decodes must
 //      re-encode to exactly the same bytes (LCM has one encoding per value) and decode again
 //      to exactly the same flat sample; anything else traps.
-// Build and run by hand (the core's sources need Eigen's headers and spdlog, fmt, pugixml):
-//   clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address -I core/include -I /usr/include/eigen3
-//     core/src/*.cpp tests/fuzz/fuzz_lcm.cpp -lspdlog -lfmt -lpugixml -o fuzz_lcm
-//   ./fuzz_lcm -max_total_time=30 corpus/   (seeds: any .lcm files, and encoded fz.all_t messages)
+// Build with ./scripts/fuzz.sh (clang, -DPOLYPORT_FUZZ=ON, into build-fuzz/), then run by hand:
+//   ./build-fuzz/bin/fuzz_lcm -max_total_time=30 corpus/   (seeds: any .lcm files, and encoded fz.all_t messages)
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
