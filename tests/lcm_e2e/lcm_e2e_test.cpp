@@ -115,6 +115,24 @@ TEST_F(LcmEndToEnd, WrongAndCutShortMessagesAreCountedAndDropped) {
   EXPECT_GE((*link)["delivered"].get<int>(), 10) << link->dump(2);
 }
 
+TEST_F(LcmEndToEnd, DdsToLcmCarriesEveryFieldWithItsLengthMember) {
+  if (std::string(CYCLONE_PEER).empty()) FAIL() << "cyclone_peer was not built (the Cyclone DDS model is needed)";
+  setenv("CYCLONEDDS_URI", "file://" POLYPORT_SOURCE_DIR "/config/cyclonedds-loopback.xml", 1);
+  auto sub = lcm_peer("sub", {"sub", kUrl, "POSE_OUT"});
+  auto daemon = this->daemon(app("from_dds_app.xml"));
+  auto pub = peer(CYCLONE_PEER, "dds_pub", {"pub", "17", "pose", "0", "10"}  /* COUNT 0: until stopped */);
+  // The LCM peer decodes with lcm-gen code: nsamples must match the samples polyport wrote.
+  ASSERT_TRUE(eventually([&] { return poses(*sub).size() >= 10; }, 60s))
+      << "LCM sub: " << poses(*sub).size() << " poses\n" << daemon->errors() << pub->errors();
+  for (const Json& pose : poses(*sub)) expect_pose(pose);
+  expect_increasing(poses(*sub));
+  pub.reset();
+  const Json stats = stop(*daemon);
+  const Json* link = connection(stats, "dds.pose -> lcm.pose");
+  ASSERT_NE(link, nullptr);
+  EXPECT_EQ((*link)["dropped"], 0) << link->dump(2);
+}
+
 TEST_F(LcmEndToEnd, AMessageOf200KilobytesArrivesIntact) {
   auto sub = lcm_peer("blob_sub", {"blob-sub", kUrl, "POSE_OUT"});
   auto daemon = this->daemon(app("blob_app.xml"));
