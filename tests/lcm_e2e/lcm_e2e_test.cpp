@@ -169,6 +169,42 @@ TEST_F(LcmEndToEnd, ARestartedPublisherIsPickedUpAgain) {
   stop(*daemon);
 }
 
+// The shipped profiles/lcm_inproc.xml as it is: an LCM teleop (lcm-gen, wheelchair.lcm) asks
+// for 1 m/s straight ahead; the in-process control drives the simulated chair, whose wheel
+// speeds come back on LCM, mapped from the IDL types.
+TEST_F(LcmEndToEnd, TheShippedLcmWheelchairProfileDrivesTheChair) {
+  auto teleop = lcm_peer("teleop", {"teleop", kUrl, "1.0"});
+  auto daemon = this->daemon(POLYPORT_SOURCE_DIR "/profiles/lcm_inproc.xml");
+  const auto speeds = [&] {
+    std::vector<Json> out;
+    for (const Json& j : teleop->lines()) {
+      if (j.contains("left")) out.push_back(j);
+    }
+    return out;
+  };
+  // 1 m/s needs a few hundred ms of 10 ms periods to reach; wait for the wheels to turn.
+  ASSERT_TRUE(eventually(
+      [&] {
+        const auto got = speeds();
+        return got.size() >= 50 && got.back()["left"].get<double>() > 1.0 && got.back()["right"].get<double>() > 1.0;
+      },
+      30s))
+      << speeds().size() << " wheel speed messages\n" << daemon->errors() << teleop->errors();
+  const auto got = speeds();
+  for (std::size_t k = 1; k < got.size(); ++k) {
+    EXPECT_GE(got[k]["time"].get<double>(), got[k - 1]["time"].get<double>()) << "the plant's clock went back";
+  }
+  // Straight ahead: both wheels alike and the heading stays put.
+  EXPECT_NEAR(got.back()["left"].get<double>(), got.back()["right"].get<double>(), 1e-6);
+  EXPECT_NEAR(got.back()["heading"].get<double>(), 0.0, 1e-6);
+  teleop.reset();
+  const Json stats = stop(*daemon);
+  const Json* link = connection(stats, "Teleop.reference -> Control.reference");
+  ASSERT_NE(link, nullptr);
+  EXPECT_EQ((*link)["conversion"], "lcm -> flat -> map");
+  EXPECT_EQ((*link)["dropped"], 0);
+}
+
 TEST_F(LcmEndToEnd, NoMulticastRouteIsAClearError) {
   // A namespace of its own again, where loopback is down and nothing is routed.
   const fs::path profile = app("passthrough_app.xml");

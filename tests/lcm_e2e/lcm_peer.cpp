@@ -7,6 +7,9 @@
 //                                                  after its fingerprint, then a good pose
 //   lcm_peer blob-pub URL CHANNEL BYTES [PERIOD_MS] blob_t messages of BYTES bytes
 //   lcm_peer blob-sub URL CHANNEL                  prints id, size and whether every byte is right
+//   lcm_peer teleop URL SPEED_MPS                  the wheelchair's LCM teleop (config/types/
+//                                                  wheelchair.lcm): publishes a straight reference
+//                                                  every 10 ms, prints the wheel speeds it gets
 //
 // Values are those of tests/dds_peers/pose_values.hpp, so a receiver checks every field.
 #include <lcm/lcm.h>
@@ -25,6 +28,8 @@
 #include "peer_other_t.h"
 #include "peer_pose_t.h"
 #include "pose_values.hpp"
+#include "wheelchair_lcm_reference_t.h"
+#include "wheelchair_lcm_wheel_speeds_t.h"
 
 namespace {
 
@@ -58,6 +63,13 @@ void on_blob(const lcm_recv_buf_t*, const char*, const peer_blob_t* blob, void*)
   for (std::size_t k = 0; ok && k < static_cast<std::size_t>(blob->size); ++k) ok = blob->data[k] == blob_byte(blob->id, k);
   line(R"({"blob":)" + std::to_string(blob->id) + R"(,"size":)" + std::to_string(blob->size) + R"(,"ok":)" +
        (ok ? "true" : "false") + "}");
+}
+
+void on_wheel_speeds(const lcm_recv_buf_t*, const char*, const wheelchair_lcm_wheel_speeds_t* speeds, void*) {
+  char text[256];
+  std::snprintf(text, sizeof text, R"({"left":%.17g,"right":%.17g,"heading":%.17g,"time":%.17g})", speeds->left_rad_s,
+                speeds->right_rad_s, speeds->heading_deg, speeds->time_s);
+  line(text);
 }
 
 // Handles messages until stopped.
@@ -118,6 +130,19 @@ int main(int argc, char** argv) {
       peer_pose_t_publish(lcm, channel, &pose);
       line(R"({"event":"published","id":)" + std::to_string(pose.id) + "}");
       pause_ms(period);
+    }
+  } else if (mode == "teleop") {
+    // argv[3] is the speed here: the channels are the shipped profile's.
+    wheelchair_lcm_wheel_speeds_t_subscribe(lcm, "WHEELCHAIR_WHEEL_SPEEDS", on_wheel_speeds, nullptr);
+    const int fd = lcm_get_fileno(lcm);
+    const wheelchair_lcm_reference_t reference{0.0, std::atof(argv[3])};
+    while (!g_stop) {
+      wheelchair_lcm_reference_t_publish(lcm, "WHEELCHAIR_REFERENCE", &reference);
+      pollfd p{fd, POLLIN, 0};
+      const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(10);
+      while (!g_stop && std::chrono::steady_clock::now() < until) {
+        if (poll(&p, 1, 2) > 0) lcm_handle(lcm);
+      }
     }
   } else if (mode == "blob-pub") {
     const int bytes = argc > 4 ? std::atoi(argv[4]) : 200000;
