@@ -173,6 +173,18 @@ void print_final_stats(const nlohmann::json& stats) {
   for (const auto& c : stats["components"]) {
     spdlog::info("  component {} ({}): state {}, {} executions, {} errors", c.value("name", ""), c.value("model", ""),
                  c.value("state", ""), c.value("executions", 0), c.value("errors", 0));
+    if (c.contains("lcm")) {
+      for (const auto& ch : c["lcm"].value("channels", nlohmann::json::array())) {
+        if (ch.value("polyport", "") == "subscribes") {
+          spdlog::info("    LCM channel {}: {} received, {} of another type, {} too short, {} too large",
+                       ch.value("channel", ""), ch.value("received", 0), ch.value("wrong_fingerprint", 0),
+                       ch.value("too_short", 0), ch.value("too_large", 0));
+        } else {
+          spdlog::info("    LCM channel {}: {} published, {} failed", ch.value("channel", ""), ch.value("published", 0),
+                       ch.value("failed", 0));
+        }
+      }
+    }
     if (!c.contains("dds")) continue;
     for (const auto& t : c["dds"].value("topics", nlohmann::json::array())) {
       if (t.value("polyport", "") == "reads") {
