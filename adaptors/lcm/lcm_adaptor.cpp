@@ -1,10 +1,20 @@
 #include "lcm_adaptor.hpp"
 
 #include <algorithm>
+#include <cstring>
 
 #include "polyport/runtime/port.hpp"
 
 namespace polyport::lcm {
+
+MessageCheck check_message(const LcmAdaptor::Channel& channel, const void* data, std::uint32_t size) noexcept {
+  if (size < channel.fingerprint.size()) return MessageCheck::too_short;
+  if (std::memcmp(data, channel.fingerprint.data(), channel.fingerprint.size()) != 0) {
+    return MessageCheck::wrong_fingerprint;
+  }
+  if (size > channel.max_size) return MessageCheck::too_large;
+  return MessageCheck::ok;
+}
 
 std::string lcm_type_name(const std::string& registry_name) {
   std::string out = registry_name.rfind("::", 0) == 0 ? registry_name.substr(2) : registry_name;

@@ -57,6 +57,16 @@ class LcmAdaptor final : public Component {
   std::vector<std::unique_ptr<Codec>> codecs_;
 };
 
+// What the receive path makes of a message on a channel, before anything decodes it.
+enum class MessageCheck : std::uint8_t {
+  ok,
+  too_short,          // shorter than a fingerprint
+  wrong_fingerprint,  // a message of another type (or another version of it)
+  too_large,          // over the channel's max_size
+};
+// Checks `size` bytes received on `channel`: no allocation, any thread.
+MessageCheck check_message(const LcmAdaptor::Channel& channel, const void* data, std::uint32_t size) noexcept;
+
 // The type name LCM tools show for a registry name ("demo::pose_t" -> "demo.pose_t").
 std::string lcm_type_name(const std::string& registry_name);
 

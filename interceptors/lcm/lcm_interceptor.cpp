@@ -1,7 +1,5 @@
 #include "lcm_interceptor.hpp"
 
-#include <cstring>
-
 #include <nlohmann/json.hpp>
 
 #include "polyport/runtime/component_api.hpp"
@@ -11,17 +9,18 @@ namespace polyport::lcm {
 void LcmInterceptor::ChannelReader::on_message(const void* data, std::uint32_t size) noexcept {
   if (!active.load(std::memory_order_acquire)) return;
   received.fetch_add(1, std::memory_order_relaxed);
-  if (size < channel_.fingerprint.size()) {
-    too_short.fetch_add(1, std::memory_order_relaxed);
-    return;
-  }
-  if (std::memcmp(data, channel_.fingerprint.data(), channel_.fingerprint.size()) != 0) {
-    wrong_fingerprint.fetch_add(1, std::memory_order_relaxed);
-    return;
-  }
-  if (size > channel_.max_size) {
-    too_large.fetch_add(1, std::memory_order_relaxed);
-    return;
+  switch (check_message(channel_, data, size)) {
+    case MessageCheck::ok:
+      break;
+    case MessageCheck::too_short:
+      too_short.fetch_add(1, std::memory_order_relaxed);
+      return;
+    case MessageCheck::wrong_fingerprint:
+      wrong_fingerprint.fetch_add(1, std::memory_order_relaxed);
+      return;
+    case MessageCheck::too_large:
+      too_large.fetch_add(1, std::memory_order_relaxed);
+      return;
   }
   // A message cut short after its fingerprint fails in the codec when a connection decodes
   // it, and is counted there; a passthrough hands it on as the application wrote it.
