@@ -110,6 +110,28 @@ TEST_F(SocketCanEngineTest, CansendFramesArriveDecodedIntelAndMotorola) {
   EXPECT_EQ(socket_counters("bus0")["interface"], "vcan0");
 }
 
+// A sample's source time is the kernel's receive time (SO_TIMESTAMPNS, wall clock) on the
+// monotonic clock: between a stamp taken before cansend starts and one after the sample is
+// read (1 ms of slack for the clock offset measured at start; no latency is measured).
+TEST_F(SocketCanEngineTest, SamplesCarryTheKernelReceiveTimeOnTheMonotonicClock) {
+  ASSERT_TRUE(build("receive_app.xml")) << problems();
+  DataInPort* engine_probe = probe("bus0.engine");
+  ASSERT_TRUE(engine_probe);
+  start();
+
+  const MonoTime before = mono_now();
+  ASSERT_EQ(cansend("vcan0", kEngineFrame), "");
+  std::vector<double> values(6);
+  SampleMeta meta;
+  ASSERT_TRUE(eventually([&] { return engine_probe->read(values.data(), 6 * sizeof(double), &meta) == Status::ok; },
+                         kDeadline));
+  const MonoTime after = mono_now();
+  constexpr Nanos kSlack{1'000'000};
+  EXPECT_GE(meta.t_source.ns, before.ns - kSlack.count);
+  EXPECT_LE(meta.t_source.ns, after.ns + kSlack.count);
+  EXPECT_LE(meta.t_source.ns, meta.t_in.ns + kSlack.count) << "received before it entered the connection";
+}
+
 // The kernel filter passes only the profile's ids: a frame of another id, sent before one
 // the component takes, never reaches the component (frames of one socket arrive in order).
 TEST_F(SocketCanEngineTest, FramesOfOtherIdsAreFilteredOutByTheKernel) {
