@@ -14,6 +14,9 @@
 #ifdef POLYPORT_WITH_LCM
 #include "lcm_model.hpp"
 #endif
+#ifdef POLYPORT_WITH_SOCKETCAN
+#include "socketcan_model.hpp"
+#endif
 
 namespace polyport::daemon {
 
@@ -28,6 +31,9 @@ void register_models(ModelRegistry& registry) {
 #endif
 #ifdef POLYPORT_WITH_LCM
   registry.add(std::make_unique<lcm::LcmModel>());
+#endif
+#ifdef POLYPORT_WITH_SOCKETCAN
+  registry.add(std::make_unique<socketcan::SocketCanModel>());
 #endif
 }
 

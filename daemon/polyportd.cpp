@@ -99,7 +99,8 @@ std::string histogram_text(const nlohmann::json& h) {
 }
 
 // Where a port lives in its model, from the model's part of the component's description
-// (describe(): lists of endpoints with the port they serve): " topic=..." or " channel=...".
+// (describe(): lists of endpoints with the port they serve): " topic=...", " channel=..." or
+// " can_id=...".
 std::string native_endpoint(const nlohmann::json& component, const std::string& port) {
   for (const auto& [key, part] : component.items()) {
     if (!part.is_object()) continue;
@@ -107,7 +108,7 @@ std::string native_endpoint(const nlohmann::json& component, const std::string& 
       if (!list.is_array()) continue;
       for (const auto& endpoint : list) {
         if (!endpoint.is_object() || endpoint.value("port", "") != port) continue;
-        for (const char* name : {"topic", "channel"}) {
+        for (const char* name : {"topic", "channel", "can_id"}) {
           if (endpoint.contains(name)) return "  " + std::string(name) + "=" + endpoint[name].get<std::string>();
         }
       }

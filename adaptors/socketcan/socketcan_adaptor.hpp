@@ -1,0 +1,58 @@
+// The application-side face of a SocketCAN component: one typed port per DBC message, whose
+// wire format is the frame's data bytes (WireFormat::dbc) with the message's codec. A
+// connection between two CAN ports of the same message is a passthrough (the frame's bytes
+// as they are); to an in-process or another model's port it decodes / encodes the signals.
+//
+// Directions are the CAN node's view: an `output` port carries the frames the bus sends with
+// the message's id (the interceptor receives them and writes the port), an `input` port the
+// frames polyport sends with that id (the interceptor writes them from the port's sink).
+//
+// Ownership: the adaptor owns its ports and codecs; the DbcMessage belongs to the type
+// registry; the interceptor keeps raw pointers to the ports for as long as the proxy lives.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "polyport/base/diagnostics.hpp"
+#include "polyport/codecs/codec.hpp"
+#include "polyport/profile/profile.hpp"
+#include "polyport/runtime/component.hpp"
+#include "polyport/types/dbc.hpp"
+#include "polyport/types/types.hpp"
+#include "socketcan_settings.hpp"
+
+namespace polyport::socketcan {
+
+class SocketCanAdaptor final : public Component {
+ public:
+  // One port's message.
+  struct Message {
+    const DbcMessage* dbc = nullptr;  // frame id, length, FD or not
+    std::string name;                 // the registry's name of its struct ("vehicle::EngineData")
+    std::uint32_t can_id = 0;         // canid_t: CAN_EFF_FLAG for 29-bit ids
+    DataOutPort* out = nullptr;       // `output`: frames received from the bus
+    DataInPort* in = nullptr;         // `input`: frames polyport sends
+  };
+
+  SocketCanAdaptor(std::string name, std::string model) : Component(std::move(name), std::move(model)) {}
+
+  // Creates the profile's ports with their codecs; problems at the profile's locations,
+  // null when there was one.
+  static std::unique_ptr<SocketCanAdaptor> create(const Subcomponent& subcomponent, const TypeRegistry& types,
+                                                  Diagnostics& diagnostics);
+
+  const std::vector<Message>& messages() const noexcept { return messages_; }
+  const SocketCanSettings& settings() const noexcept { return *settings_; }
+
+ private:
+  bool add_message(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics);
+
+  std::shared_ptr<const SocketCanSettings> settings_;
+  std::vector<Message> messages_;
+  std::vector<std::unique_ptr<Codec>> codecs_;
+};
+
+}  // namespace polyport::socketcan

@@ -1,0 +1,89 @@
+#include "can_reactor.hpp"
+
+#include <sys/epoll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <string>
+
+namespace polyport::socketcan {
+
+std::shared_ptr<CanReactor> CanReactor::create() { return std::shared_ptr<CanReactor>(new CanReactor()); }
+
+CanReactor::~CanReactor() {
+  if (thread_.joinable()) {
+    stopping_.store(true, std::memory_order_release);
+    const std::uint64_t one = 1;
+    (void)::write(wake_fd_, &one, sizeof one);
+    thread_.join();
+  }
+  if (wake_fd_ >= 0) ::close(wake_fd_);
+  if (epoll_fd_ >= 0) ::close(epoll_fd_);
+}
+
+Result<void> CanReactor::start() {
+  if (thread_.joinable()) return {};
+  epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
+  if (epoll_fd_ < 0) return make_error(std::string("epoll_create1: ") + std::strerror(errno));
+  wake_fd_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+  if (wake_fd_ < 0) return make_error(std::string("eventfd: ") + std::strerror(errno));
+  epoll_event event{};
+  event.events = EPOLLIN;
+  event.data.ptr = nullptr;  // the wake-up descriptor
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, wake_fd_, &event) != 0) {
+    return make_error(std::string("epoll_ctl: ") + std::strerror(errno));
+  }
+  thread_ = std::thread([this] { run(); });
+  return {};
+}
+
+Result<void> CanReactor::add(int fd, ReadableHandler& handler) {
+  if (auto started = start(); !started) return started;
+  epoll_event event{};
+  event.events = EPOLLIN;
+  event.data.ptr = &handler;
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &event) != 0) {
+    return make_error(std::string("epoll_ctl(EPOLL_CTL_ADD): ") + std::strerror(errno));
+  }
+  return {};
+}
+
+void CanReactor::remove(int fd) noexcept {
+  if (!thread_.joinable()) return;
+  (void)::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd, nullptr);
+  // The thread may have taken this socket's event from epoll_wait before the DEL and be
+  // calling its handler now. Wake it and wait until it finishes a round begun after the DEL
+  // had been read: by then it is past any call for this socket.
+  const std::uint64_t round = rounds_.load(std::memory_order_acquire);
+  const std::uint64_t one = 1;
+  (void)::write(wake_fd_, &one, sizeof one);
+  for (std::uint64_t seen = round; seen == round; seen = rounds_.load(std::memory_order_acquire)) {
+    rounds_.wait(seen, std::memory_order_acquire);
+  }
+}
+
+void CanReactor::run() noexcept {
+  constexpr int kMaxEvents = 16;
+  epoll_event events[kMaxEvents];
+  while (!stopping_.load(std::memory_order_acquire)) {
+    const int ready = ::epoll_wait(epoll_fd_, events, kMaxEvents, -1);
+    for (int i = 0; i < ready; ++i) {
+      if (auto* handler = static_cast<ReadableHandler*>(events[i].data.ptr)) {
+        handler->on_readable();
+      } else {
+        std::uint64_t count = 0;
+        (void)::read(wake_fd_, &count, sizeof count);
+      }
+    }
+    if (ready < 0 && errno != EINTR) break;
+    rounds_.fetch_add(1, std::memory_order_acq_rel);
+    rounds_.notify_all();
+  }
+  // A remove() must not wait for a thread that has left: count one more round for it.
+  rounds_.fetch_add(1, std::memory_order_acq_rel);
+  rounds_.notify_all();
+}
+
+}  // namespace polyport::socketcan

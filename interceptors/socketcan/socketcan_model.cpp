@@ -1,0 +1,21 @@
+#include "socketcan_model.hpp"
+
+#include "socketcan_adaptor.hpp"
+#include "socketcan_interceptor.hpp"
+
+namespace polyport::socketcan {
+
+std::optional<Proxy> SocketCanModel::create_proxy(const Subcomponent& sub, ModelContext& context,
+                                                  Diagnostics& diagnostics) {
+  std::unique_ptr<SocketCanAdaptor> adaptor = SocketCanAdaptor::create(sub, context.types, diagnostics);
+  if (!adaptor) return std::nullopt;
+  std::shared_ptr<CanReactor> reactor = reactor_.lock();
+  if (!reactor) {
+    reactor = CanReactor::create();
+    reactor_ = reactor;
+  }
+  auto interceptor = std::make_unique<SocketCanInterceptor>(*adaptor, std::move(reactor));
+  return Proxy{std::move(adaptor), std::move(interceptor)};
+}
+
+}  // namespace polyport::socketcan
