@@ -238,21 +238,7 @@ void SocketCanInterceptor::on_readable() noexcept {
   }
 }
 
-ReturnCode SocketCanInterceptor::command(LifecycleCommand command) {
-  switch (command) {
-    case LifecycleCommand::initialize:
-    case LifecycleCommand::activate:
-      return start() ? ReturnCode::ok : ReturnCode::error;
-    case LifecycleCommand::deactivate:
-    case LifecycleCommand::finalize:
-      stop();
-      return ReturnCode::ok;
-    case LifecycleCommand::reset:
-    case LifecycleCommand::recover:
-      return ReturnCode::unsupported;
-  }
-  return ReturnCode::unsupported;
-}
+ReturnCode SocketCanInterceptor::command(LifecycleCommand command) { return start_stop_command(*this, command); }
 
 InterceptorStatus SocketCanInterceptor::status() const {
   return InterceptorStatus{active_ ? "active" : "inactive", 0, 0};
