@@ -252,5 +252,22 @@ TEST(ShippedDdsProfiles, CheckAndRunBriefly) {
   }
 }
 
+// Every shipped application profile (profiles/*.xml) checks clean, without a warning, with
+// every model built in:
+// `check` opens no network, bus or participant, so it holds on any host.
+TEST(ShippedProfiles, EveryOneChecksClean) {
+  std::vector<fs::path> profiles;
+  for (const auto& entry : fs::directory_iterator(POLYPORT_SOURCE_DIR "/profiles")) {
+    if (entry.path().extension() == ".xml") profiles.push_back(entry.path());
+  }
+  ASSERT_GE(profiles.size(), 6u);
+  for (const fs::path& profile : profiles) {
+    SCOPED_TRACE(profile.string());
+    const Process check = spawn({"check", profile.string()}, profile.stem().string() + "-check-all");
+    EXPECT_EQ(wait_exit(check), 0) << slurp(check.err);
+    EXPECT_EQ(slurp(check.err).find("warning"), std::string::npos) << slurp(check.err);
+  }
+}
+
 }  // namespace
 }  // namespace polyport
