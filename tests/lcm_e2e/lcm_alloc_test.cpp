@@ -11,7 +11,6 @@
 #include <gtest/gtest.h>
 #include <dlfcn.h>
 #include <poll.h>
-#include <sched.h>
 
 #include <cerrno>
 #include <cstdio>
@@ -25,6 +24,7 @@
 
 #include "../support/engine_fixture.hpp"
 #include "../support/malloc_counter.hpp"
+#include "../support/multicast_namespace.hpp"
 #include "lcm_model.hpp"
 #include "peer_pose2_t.h"
 #include "peer_pose_t.h"
@@ -93,12 +93,7 @@ class LcmAlloc : public EngineFixture {
     models.add(std::make_unique<lcm::LcmModel>());
   }
   void SetUp() override {
-    ASSERT_EQ(unshare(CLONE_NEWNET), 0) << "a network namespace of the test's own needs root (CAP_SYS_ADMIN): "
-                                        << std::strerror(errno);
-    ASSERT_EQ(std::system("ip link set lo up && ip link set lo multicast on && "
-                          "ip route add 239.255.76.67/32 dev lo"),
-              0)
-        << "cannot give loopback a multicast route (iproute2's `ip`)";
+    isolate_with_multicast_route();
   }
 };
 

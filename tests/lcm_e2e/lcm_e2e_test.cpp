@@ -8,12 +8,10 @@
 // each case as a process of its own) with loopback up and a route for LCM's group on it, so
 // the fixture adds the route it needs and the route goes with the namespace. That needs root
 // (CAP_SYS_ADMIN); without it the cases fail and say so.
-#include <sched.h>
 
-#include <cerrno>
 #include <cstdlib>
-#include <cstring>
 
+#include "../support/multicast_namespace.hpp"
 #include "pose_checks.hpp"
 
 namespace polyport::test {
@@ -27,12 +25,7 @@ class LcmEndToEnd : public DaemonTest {
 
   void SetUp() override {
     DaemonTest::SetUp();
-    ASSERT_EQ(unshare(CLONE_NEWNET), 0) << "a network namespace of the test's own needs root (CAP_SYS_ADMIN): "
-                                        << std::strerror(errno);
-    ASSERT_EQ(std::system("ip link set lo up && ip link set lo multicast on && "
-                          "ip route add 239.255.76.67/32 dev lo"),
-              0)
-        << "cannot give loopback a multicast route (iproute2's `ip`)";
+    isolate_with_multicast_route();
   }
 
   fs::path app(const std::string& name) {

@@ -10,7 +10,7 @@
 
 #include "../support/engine_fixture.hpp"
 #include "../support/eventually.hpp"
-#include "can_peer.hpp"
+#include "socketcan_fixture.hpp"
 #include "polyport/runtime/engine.hpp"
 #include "polyport/types/dbc.hpp"
 #include "socketcan_model.hpp"
@@ -23,23 +23,16 @@ using test::cansend;
 using test::Clock;
 using test::eventually;
 
-constexpr auto kDeadline = std::chrono::seconds(5);  // bounds a failure, not a latency
+using test::kDeadline;
 
 // BatteryFD (0x300, 64 bytes): Cell01 0x100E * 0.001 = 4.110 V, Cell02 0x0FD4 * 0.001 =
 // 4.052 V, StateOfCharge (byte 32, Motorola) 0xA0 * 0.5 = 80 %, the rest 0.
 const std::string kBatteryData = "0E10D40F" + std::string(2 * 28, '0') + "A0" + std::string(2 * 31, '0');
 
-class SocketCanFdTest : public test::EngineFixture {
+// The FD profiles have one port per component: "battery".
+class SocketCanFdTest : public test::SocketCanFixture {
  protected:
-  SocketCanFdTest() : EngineFixture(POLYPORT_TEST_DATA "/socketcan", LoadOptions{}) {
-    models.add(std::make_unique<socketcan::SocketCanModel>());
-  }
-
-  nlohmann::json battery_port(const std::string& component) {
-    nlohmann::json out;
-    engine.find_interceptor(component)->describe(out);
-    return out["socketcan"]["ports"][0];
-  }
+  nlohmann::json battery_port(const std::string& component) { return port_counters(component, "battery"); }
 };
 
 // A 64-byte FD frame with the bit rate switch from cansend is decoded on vcan0 and goes out
@@ -81,7 +74,9 @@ TEST_F(SocketCanFdTest, SixtyFourByteFramesAreDecodedAndPassedThrough) {
   const DbcMessage* dbc = type->resolved().dbc;
   ASSERT_NE(dbc, nullptr);
   for (std::size_t i = 0; i < dbc->signals.size(); ++i) {
-    if (dbc->signals[i].name == "StateOfCharge") EXPECT_NEAR(values[i], 80.0, 1e-9);
+    if (dbc->signals[i].name == "StateOfCharge") {
+      EXPECT_NEAR(values[i], 80.0, 1e-9);
+    }
   }
 
   EXPECT_TRUE(eventually([&] { return battery_port("bus1")["sent"] == sent; }, kDeadline))

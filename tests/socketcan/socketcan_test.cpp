@@ -16,7 +16,7 @@
 
 #include "../support/engine_fixture.hpp"
 #include "../support/eventually.hpp"
-#include "can_peer.hpp"
+#include "socketcan_fixture.hpp"
 #include "polyport/runtime/engine.hpp"
 #include "socketcan_model.hpp"
 
@@ -28,7 +28,7 @@ using test::cansend;
 using test::Clock;
 using test::eventually;
 
-constexpr auto kDeadline = std::chrono::seconds(5);  // bounds a failure, not a latency
+using test::kDeadline;
 
 // EngineData (0x100, Intel): EngineSpeed 4000 * 0.25 = 1000 rpm, CoolantTemp 120 - 40 = 80,
 // Torque 200 * 0.5 = 100 Nm, Gear 3, ThrottlePos 125 * 0.4 = 50 %, EngineRunning 1.
@@ -39,47 +39,7 @@ constexpr double kEngineValues[] = {1000.0, 80.0, 100.0, 3.0, 50.0, 1.0};
 constexpr const char* kBrakeFrame = "1A0#04D23E80008500AA";
 constexpr double kBrakeValues[] = {123.4, 50.0, 250.0, 1.0, 5.0, 170.0};
 
-class SocketCanEngineTest : public test::EngineFixture {
- protected:
-  SocketCanEngineTest() : EngineFixture(POLYPORT_TEST_DATA "/socketcan", LoadOptions{}) {
-    models.add(std::make_unique<socketcan::SocketCanModel>());
-  }
-
-  void start() {
-    std::vector<std::string> warnings;
-    auto started = engine.start(warnings);
-    ASSERT_TRUE(started) << started.error().message;
-  }
-
-  DataInPort* probe(const std::string& port) {
-    auto added = engine.add_probe(port, 16);
-    EXPECT_TRUE(added) << (added ? "" : added.error().message);
-    return added ? added.value() : nullptr;
-  }
-
-  // The next decoded sample of a probe, waited for until the deadline.
-  static bool next_sample(DataInPort& probe, std::vector<double>& values) {
-    return eventually(
-        [&] { return probe.read(values.data(), static_cast<std::uint32_t>(values.size() * sizeof(double))) == Status::ok; },
-        kDeadline);
-  }
-
-  // The describe() entry of a component's port.
-  nlohmann::json port_counters(const std::string& component, const std::string& port) {
-    nlohmann::json out;
-    engine.find_interceptor(component)->describe(out);
-    for (const auto& p : out["socketcan"]["ports"]) {
-      if (p["port"] == port) return p;
-    }
-    ADD_FAILURE() << component << " has no port " << port << ": " << out.dump(2);
-    return {};
-  }
-  nlohmann::json socket_counters(const std::string& component) {
-    nlohmann::json out;
-    engine.find_interceptor(component)->describe(out);
-    return out["socketcan"];
-  }
-};
+using SocketCanEngineTest = test::SocketCanFixture;
 
 void expect_values(const std::vector<double>& got, const double* want, const char* what) {
   for (std::size_t i = 0; i < got.size(); ++i) EXPECT_NEAR(got[i], want[i], 1e-9) << what << " signal " << i;
