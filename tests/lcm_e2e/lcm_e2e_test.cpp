@@ -1,5 +1,5 @@
-// polyportd between LCM applications built with lcm-gen (tests/lcm_e2e/lcm_peer), and from
-// LCM to a Cyclone DDS application built with idlc (tests/dds_peers/cyclone_peer): every
+// polyportd between LCM applications built with lcm-gen (tests/lcm_e2e/lcm_peer), and between
+// LCM and DDS applications built with idlc and fastddsgen (tests/dds_peers): every
 // field checked where it arrives, wrong and cut-short messages counted and dropped, a message
 // of 200 KB (fragmented on the wire) carried intact, a restarted publisher picked up, and a
 // host without a multicast route told which route to add.
@@ -28,9 +28,11 @@ class LcmEndToEnd : public DaemonTest {
     isolate_with_multicast_route();
   }
 
-  fs::path app(const std::string& name) {
+  // `dds_model`: the model of the DDS end in the *_dds_app.xml templates.
+  fs::path app(const std::string& name, const std::string& dds_model = "cyclonedds") {
     return fill_templates(POLYPORT_TEST_DATA "/lcm_e2e",
                           {{"@URL@", kUrl},
+                           {"@DDS_MODEL@", dds_model},
                            {"@SOURCE_CHANNEL@", "POSE_IN"},
                            {"@SINK_CHANNEL@", "POSE_OUT"},
                            {"@A@", "17"},
@@ -206,6 +208,48 @@ TEST_F(LcmEndToEnd, NoMulticastRouteIsAClearError) {
   const std::string errors = daemon->errors();
   EXPECT_NE(errors.find("no route to multicast group 239.255.76.67"), std::string::npos) << errors;
   EXPECT_NE(errors.find("ip route add 239.255.76.67/32 dev lo"), std::string::npos) << errors;
+}
+
+// Fast DDS at the other end: the same mapping both ways as with Cyclone DDS above, against
+// a fastddsgen program (tests/dds_peers/fastdds_peer).
+class LcmFastDds : public LcmEndToEnd {
+ protected:
+  void SetUp() override {
+    LcmEndToEnd::SetUp();
+    if (std::string(FASTDDS_PEER).empty()) FAIL() << "fastdds_peer was not built (the Fast DDS model and fastddsgen are needed)";
+    setenv("FASTRTPS_DEFAULT_PROFILES_FILE", POLYPORT_SOURCE_DIR "/config/fastdds-loopback.xml", 1);
+  }
+};
+
+TEST_F(LcmFastDds, LcmToFastDdsCarriesEveryField) {
+  auto sub = peer(FASTDDS_PEER, "fast_sub", {"sub", "17", "pose", "10", "60"});
+  auto daemon = this->daemon(app("to_dds_app.xml", "fastdds"));
+  auto pub = lcm_peer("pub", {"pub", kUrl, "POSE_IN", "10"});
+  ASSERT_TRUE(eventually([&] { return poses(*sub).size() >= 10; }, 60s))
+      << "Fast DDS sub: " << poses(*sub).size() << " poses\n" << daemon->errors() << sub->errors();
+  for (const Json& pose : poses(*sub)) expect_pose(pose);
+  expect_increasing(poses(*sub));
+  pub.reset();
+  const Json stats = stop(*daemon);
+  const Json* link = connection(stats, "lcm.pose -> dds.pose");
+  ASSERT_NE(link, nullptr);
+  EXPECT_NE((*link)["conversion"], "passthrough");
+  EXPECT_GE((*link)["delivered"].get<int>(), 10) << link->dump(2);
+}
+
+TEST_F(LcmFastDds, FastDdsToLcmCarriesEveryFieldWithItsLengthMember) {
+  auto sub = lcm_peer("sub", {"sub", kUrl, "POSE_OUT"});
+  auto daemon = this->daemon(app("from_dds_app.xml", "fastdds"));
+  auto pub = peer(FASTDDS_PEER, "fast_pub", {"pub", "17", "pose", "0", "10"}  /* COUNT 0: until stopped */);
+  ASSERT_TRUE(eventually([&] { return poses(*sub).size() >= 10; }, 60s))
+      << "LCM sub: " << poses(*sub).size() << " poses\n" << daemon->errors() << pub->errors();
+  for (const Json& pose : poses(*sub)) expect_pose(pose);
+  expect_increasing(poses(*sub));
+  pub.reset();
+  const Json stats = stop(*daemon);
+  const Json* link = connection(stats, "dds.pose -> lcm.pose");
+  ASSERT_NE(link, nullptr);
+  EXPECT_EQ((*link)["dropped"], 0) << link->dump(2);
 }
 
 }  // namespace
