@@ -9,13 +9,13 @@
 #     dds  both DDS vendors, 16 B and 1 KiB, unpinned and on one core (about three minutes on
 #          a 2-core machine); scripts/bench_dds.sh
 #     lcm  16 B and 1 KiB LCM messages, unpinned and on one core, in a private network
-#          namespace (needs root); scripts/bench_lcm.sh
+#          namespace (needs root; under a minute); scripts/bench_lcm.sh
 #     can  classic CAN frames on vcan0..vcan4, inside scripts/vcan-run (the user-mode Linux
-#          guest where the host kernel has no vcan); scripts/bench_can.sh
+#          guest where the host kernel has no vcan; about a minute); scripts/bench_can.sh
 #   Runner options: benchmarks/<model>/run_pingpong.cpp lists them (e.g. --placements unpinned).
 # Environment: POLYPORT_BUILD_DIR (default: build; benchmarks are switched on in it),
-# POLYPORT_BENCH_ROUNDS (measured round trips per series; default 10000, can 3000),
-# POLYPORT_BENCH_WARMUP (per ping process; default 1000, can 300), POLYPORT_JOBS (2).
+# POLYPORT_BENCH_ROUNDS (10000 measured round trips per series), POLYPORT_BENCH_WARMUP (1000
+# per ping process), POLYPORT_JOBS (2).
 #
 # Ctrl-C or SIGTERM stops the runner, which stops its ping, pong and polyportd processes (they
 # also die with it if it is killed outright); an interrupted run writes no result.
@@ -23,15 +23,15 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 model="${1:-}"
 case "$model" in
-  dds) needs="Cyclone DDS, Fast DDS, idlc, fastddsgen and both DDS models"; default_rounds=10000 default_warmup=1000 ;;
-  lcm) needs="liblcm, lcm-gen and the LCM model"; default_rounds=10000 default_warmup=1000 ;;
-  can) needs="the SocketCAN model"; default_rounds=3000 default_warmup=300 ;;
+  dds) needs="Cyclone DDS, Fast DDS, idlc, fastddsgen and both DDS models" ;;
+  lcm) needs="liblcm, lcm-gen and the LCM model" ;;
+  can) needs="the SocketCAN model" ;;
   *) echo "usage: $0 dds|lcm|can [runner options]" >&2; exit 2 ;;
 esac
 shift
 build="${POLYPORT_BUILD_DIR:-build}"
-rounds="${POLYPORT_BENCH_ROUNDS:-$default_rounds}"
-warmup="${POLYPORT_BENCH_WARMUP:-$default_warmup}"
+rounds="${POLYPORT_BENCH_ROUNDS:-10000}"
+warmup="${POLYPORT_BENCH_WARMUP:-1000}"
 runner="bench_${model}_pingpong"
 
 if ! grep -qs '^POLYPORT_BUILD_BENCHMARKS:BOOL=ON$' "$build/CMakeCache.txt"; then

@@ -9,7 +9,8 @@
 //   pingpong_can relay N_A N_B 8                    until SIGINT / SIGTERM
 // N picks the interface vcanN: each path of the benchmark has interfaces of its own. Each
 // socket's kernel filter passes only the id it reads.
-// Threads: one per program; every read follows a poll() on main.
+// Threads: one per program; every read follows a poll() on main, and the relay's one poll()
+// covers both of its sockets (one wake-up, one read and one write per frame forwarded).
 #include <linux/can.h>
 #include <linux/can/raw.h>
 #include <net/if.h>
@@ -62,14 +63,18 @@ bool send_frame(int fd, canid_t id, const std::uint8_t (&data)[8]) {
   return write(fd, &frame, sizeof frame) == static_cast<ssize_t>(sizeof frame);
 }
 
-// Reads one frame into `data` when one comes within `timeout_ms`.
-bool read_frame(int fd, std::uint8_t (&data)[8], int timeout_ms) {
-  pollfd p{fd, POLLIN, 0};
-  if (poll(&p, 1, timeout_ms) <= 0) return false;
+// Reads one frame into `data` (the socket said one is there).
+bool read_one(int fd, std::uint8_t (&data)[8]) {
   can_frame frame{};
   if (read(fd, &frame, sizeof frame) != static_cast<ssize_t>(sizeof frame) || frame.len != 8) return false;
   std::memcpy(data, frame.data, 8);
   return true;
+}
+
+// Reads one frame into `data` when one comes within `timeout_ms`.
+bool read_frame(int fd, std::uint8_t (&data)[8], int timeout_ms) {
+  pollfd p{fd, POLLIN, 0};
+  return poll(&p, 1, timeout_ms) > 0 && read_one(fd, data);
 }
 
 std::uint64_t seq_of(const std::uint8_t (&data)[8]) {
@@ -136,8 +141,8 @@ int relay(int a, int b) {
   std::uint8_t data[8];
   while (!g_stop) {
     if (poll(p, 2, 100) <= 0) continue;
-    if ((p[0].revents & POLLIN) != 0 && read_frame(on_a, data, 0)) send_frame(on_b, kPingId, data);
-    if ((p[1].revents & POLLIN) != 0 && read_frame(on_b, data, 0)) send_frame(on_a, kPongId, data);
+    if ((p[0].revents & POLLIN) != 0 && read_one(on_a, data)) send_frame(on_b, kPingId, data);
+    if ((p[1].revents & POLLIN) != 0 && read_one(on_b, data)) send_frame(on_a, kPongId, data);
   }
   close(on_a);
   close(on_b);
