@@ -53,7 +53,10 @@ mkdir -p benchmarks/results
 out="benchmarks/results/${model}_pingpong-$(date -u +%Y%m%dT%H%M%SZ).json"
 command=("$build/bin/$runner" "$out" "$rounds" "$warmup" "$@")
 if [ "$model" = can ]; then
-  # Five interfaces: direct, via polyportd (two), via the relay (two).
+  # Five interfaces: direct, via polyportd (two), via the relay (two). The guest sees one CPU
+  # and its own load, so the result also records the machine it runs on.
+  POLYPORT_BENCH_OUTER_HOST="$(nproc) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(uname -sr), loadavg $(cut -d' ' -f1-3 /proc/loadavg)"
+  export POLYPORT_BENCH_OUTER_HOST
   command=(scripts/vcan-run --interfaces 5 --timeout 3600 -- "${command[@]}")
 fi
 # In the background so that the traps run while it works (bash runs a trap only once a

@@ -169,7 +169,8 @@ std::string utc_now();
 std::string ns_to_us(const Json& v);
 
 // "benchmark", "started_utc", "git_revision" (POLYPORT_GIT_REVISION) and "host" (nproc, cpu,
-// uname, load averages) of a result file.
+// uname, load averages; in a guest also POLYPORT_BENCH_OUTER_HOST, the machine it runs on) of a
+// result file.
 Json result_header(const std::string& benchmark);
 
 
