@@ -489,8 +489,8 @@ std::string relay_verdicts(const Json& c) {
 }
 
 fs::path work_dir(const std::string& keep, const std::string& benchmark) {
-  const fs::path dir = keep.empty() ? fs::temp_directory_path() / ("polyport-bench-" + benchmark + "-" + std::to_string(getpid()))
-                                    : fs::path(keep);
+  const std::string name = "polyport-bench-" + benchmark + "-" + std::to_string(getpid());
+  const fs::path dir = keep.empty() ? fs::temp_directory_path() / name : fs::path(keep);
   fs::create_directories(dir);
   return dir;
 }

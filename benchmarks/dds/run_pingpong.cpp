@@ -172,7 +172,8 @@ void print_line(const Json& c) {
   const Json t = c.value("targets", Json::object());
   std::string verdicts = "bound n/a";
   if (!t.empty()) {
-    verdicts = "bound " + bench::ns_to_us(t["bound_2x_direct_plus_2us_ns"]) + (t["via_within_bound"].get<bool>() ? " ok" : " MISS") +
+    verdicts = "bound " + bench::ns_to_us(t["bound_2x_direct_plus_2us_ns"]) +
+               (t["via_within_bound"].get<bool>() ? " ok" : " MISS") +
                "  in-to-out p99 <= 1 us " + (t["in_to_out_p99_within_1us"].get<bool>() ? "ok" : "MISS");
   }
   bench::print_case(c, c["vendor"].get<std::string>(), verdicts);

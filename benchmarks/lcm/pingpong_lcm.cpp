@@ -91,7 +91,8 @@ int ping(int port, int size, int rounds, int warmup, const char* samples) {
   if (lcm == nullptr) return 1;
   std::int64_t echoed = -1;
   Generated<T>::subscribe(
-      lcm, kPong, [](const lcm_recv_buf_t*, const char*, const T* msg, void* user) { *static_cast<std::int64_t*>(user) = msg->seq; },
+      lcm, kPong,
+      [](const lcm_recv_buf_t*, const char*, const T* msg, void* user) { *static_cast<std::int64_t*>(user) = msg->seq; },
       &echoed);
   T sample{};
   // UDP multicast has no discovery: probe (negative sequence numbers) until the path answers.
@@ -111,7 +112,9 @@ int ping(int port, int size, int rounds, int warmup, const char* samples) {
         sample.seq = static_cast<std::int64_t>(seq);
         return Generated<T>::publish(lcm, kPing, &sample) == 0;
       },
-      [&](std::uint64_t seq) { return handle_until(lcm, 1000, [&] { return echoed == static_cast<std::int64_t>(seq); }); });
+      [&](std::uint64_t seq) {
+        return handle_until(lcm, 1000, [&] { return echoed == static_cast<std::int64_t>(seq); });
+      });
   lcm_destroy(lcm);
   return rc;
 }
