@@ -19,3 +19,11 @@ if [ -x ./build/bin/bench_dds_pingpong ]; then
 else
   echo "bench_dds_pingpong not built (needs Cyclone DDS, Fast DDS, idlc and fastddsgen); skipped" >&2
 fi
+# LCM ping-pong (a private network namespace: needs root) and CAN ping-pong (in the vcan guest).
+if [ -x ./build/bin/bench_lcm_pingpong ]; then
+  ./build/bin/bench_lcm_pingpong "benchmarks/results/lcm_pingpong-${stamp}.json" 10000 1000
+fi
+if [ -x ./build/bin/bench_can_pingpong ]; then
+  ./scripts/vcan-run --interfaces 5 --timeout 3600 -- \
+    ./build/bin/bench_can_pingpong "benchmarks/results/can_pingpong-${stamp}.json" 10000 1000
+fi

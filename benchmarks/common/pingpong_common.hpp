@@ -1,6 +1,7 @@
-// What the two ping-pong programs share: stopping on a signal, the clock, the ping loop and
-// the percentiles of its one run, printed as one JSON line. Single-threaded: the ping loop runs
-// on main; the SDKs' own threads only deliver into the reader the loop waits on.
+// What the ping-pong programs (benchmarks/dds, benchmarks/lcm, benchmarks/can) share: stopping
+// on a signal, the command line, the clock, the ping loop and the percentiles of its one run,
+// printed as one JSON line. Single-threaded: the ping loop runs on main; an SDK's own threads
+// only deliver into the reader the loop waits on.
 #pragma once
 
 #include <algorithm>
@@ -10,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <initializer_list>
 #include <optional>
 #include <string>
 #include <vector>
@@ -25,9 +27,11 @@ inline void stop_on_signals() {
   std::signal(SIGTERM, on_signal);
 }
 
-// The command line both programs take:
+// The command line every program takes:
 //   ping DOMAIN SIZE ROUNDS WARMUP [SAMPLES] | pong DOMAIN SIZE | relay DOMAIN_A DOMAIN_B SIZE
-// with SIZE 16 or 1024. nullopt (after printing the usage) when it is not one of those.
+// with SIZE one of `sizes` (bytes of payload) and DOMAIN what keeps one path apart from the
+// others (a DDS domain, an LCM provider, a vcan interface). nullopt (after printing the usage)
+// when it is not one of those.
 struct Command {
   std::string mode;  // "ping", "pong" or "relay"
   int size = 0;
@@ -38,18 +42,20 @@ struct Command {
   const char* samples = nullptr;  // ping only, optional
 };
 
-inline std::optional<Command> parse_command(int argc, char** argv) {
+inline std::optional<Command> parse_command(int argc, char** argv, std::initializer_list<int> sizes = {16, 1024}) {
   const auto int_at = [&](int i) { return argc > i ? std::atoi(argv[i]) : 0; };
   Command c;
   c.mode = argc > 1 ? argv[1] : "";
   c.domain = int_at(2);
   c.size = c.mode == "relay" ? int_at(4) : int_at(3);
   const bool known = (c.mode == "ping" && argc >= 6) || c.mode == "pong" || c.mode == "relay";
-  if (!known || (c.size != 16 && c.size != 1024)) {
+  if (!known || std::find(sizes.begin(), sizes.end(), c.size) == sizes.end()) {
+    std::string allowed;
+    for (int size : sizes) allowed += (allowed.empty() ? "" : " or ") + std::to_string(size);
     std::fprintf(stderr,
                  "usage: %s ping DOMAIN SIZE ROUNDS WARMUP [SAMPLES] | pong DOMAIN SIZE | relay DOMAIN_A DOMAIN_B SIZE\n"
-                 "       SIZE: 16 or 1024\n",
-                 argv[0]);
+                 "       SIZE: %s\n",
+                 argv[0], allowed.c_str());
     return std::nullopt;
   }
   if (c.mode == "relay") c.domain_b = int_at(3);

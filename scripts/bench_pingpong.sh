@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# A ping-pong latency benchmark, run by hand (never a test): builds its runner (with its
+# ping/pong programs and polyportd) and runs it once, writing
+# benchmarks/results/<model>_pingpong-<UTC stamp>.json. Each runs direct, via polyportd and
+# via a native relay, and reports median and p99 per series, polyport's in-to-out time and the
+# CPU time per round trip (README.md, "Benchmarks").
+#
+#   scripts/bench_pingpong.sh dds|lcm|can [runner options]
+#     dds  both DDS vendors, 16 B and 1 KiB, unpinned and on one core (about three minutes on
+#          a 2-core machine); scripts/bench_dds.sh
+#     lcm  16 B and 1 KiB LCM messages, unpinned and on one core, in a private network
+#          namespace (needs root; under a minute); scripts/bench_lcm.sh
+#     can  classic CAN frames on vcan0..vcan4, inside scripts/vcan-run (the user-mode Linux
+#          guest where the host kernel has no vcan; about a minute); scripts/bench_can.sh
+#   Runner options: benchmarks/<model>/run_pingpong.cpp lists them (e.g. --placements unpinned).
+# Environment: POLYPORT_BUILD_DIR (default: build; benchmarks are switched on in it),
+# POLYPORT_BENCH_ROUNDS (10000 measured round trips per series), POLYPORT_BENCH_WARMUP (1000
+# per ping process), POLYPORT_JOBS (2).
+#
+# Ctrl-C or SIGTERM stops the runner, which stops its ping, pong and polyportd processes (they
+# also die with it if it is killed outright); an interrupted run writes no result.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+model="${1:-}"
+case "$model" in
+  dds) needs="Cyclone DDS, Fast DDS, idlc, fastddsgen and both DDS models" ;;
+  lcm) needs="liblcm, lcm-gen and the LCM model" ;;
+  can) needs="the SocketCAN model" ;;
+  *) echo "usage: $0 dds|lcm|can [runner options]" >&2; exit 2 ;;
+esac
+shift
+build="${POLYPORT_BUILD_DIR:-build}"
+rounds="${POLYPORT_BENCH_ROUNDS:-10000}"
+warmup="${POLYPORT_BENCH_WARMUP:-1000}"
+runner="bench_${model}_pingpong"
+
+if ! grep -qs '^POLYPORT_BUILD_BENCHMARKS:BOOL=ON$' "$build/CMakeCache.txt"; then
+  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPOLYPORT_BUILD_BENCHMARKS=ON >/dev/null
+fi
+if ! cmake --build "$build" -j "${POLYPORT_JOBS:-2}" --target "$runner"; then
+  echo "$runner did not build; it needs $needs" >&2
+  exit 1
+fi
+
+# Which sources were measured: the commit, and whether tracked files differed from it.
+revision="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
+if [ "$revision" != unknown ] && [ -n "$(GIT_OPTIONAL_LOCKS=0 git status --porcelain --untracked-files=no 2>/dev/null)" ]; then
+  revision="${revision}+dirty"
+fi
+export POLYPORT_GIT_REVISION="$revision"
+
+mkdir -p benchmarks/results
+out="benchmarks/results/${model}_pingpong-$(date -u +%Y%m%dT%H%M%SZ).json"
+command=("$build/bin/$runner" "$out" "$rounds" "$warmup" "$@")
+if [ "$model" = can ]; then
+  # Five interfaces: direct, via polyportd (two), via the relay (two). The guest sees one CPU
+  # and its own load, so the result also records the machine it runs on.
+  POLYPORT_BENCH_OUTER_HOST="$(nproc) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(uname -sr), loadavg $(cut -d' ' -f1-3 /proc/loadavg)"
+  export POLYPORT_BENCH_OUTER_HOST
+  command=(scripts/vcan-run --interfaces 5 --timeout 3600 -- "${command[@]}")
+fi
+# In the background so that the traps run while it works (bash runs a trap only once a
+# foreground command has returned).
+"${command[@]}" &
+pid=$!
+stop() {
+  kill -TERM "$pid" 2>/dev/null || true
+  wait "$pid" 2>/dev/null || true
+}
+trap 'stop; exit 130' INT TERM HUP
+trap stop EXIT
+rc=0
+wait "$pid" || rc=$?
+trap - EXIT
+if [ "$rc" -ne 0 ] && [ -f "$out" ]; then
+  echo "$out: some cases have no targets (see their error fields)" >&2
+fi
+exit "$rc"
