@@ -97,7 +97,16 @@ void Loader::load_type_files() {
 void Loader::check_types(const LoadedComponent& component) {
   if (!component.readable) return;
   for (const auto& use : component.type_uses) {
-    if (types_.find(use.name) == nullptr) {
+    if (types_.find(use.name) != nullptr) continue;
+    // A type its file declares but cannot provide (a DBC message with overlapping signals):
+    // the file loaded with a warning; naming the type is the error, with the reason.
+    if (const UnusableType* unusable = types_.find_unusable(use.name)) {
+      const SourceLocation& at = unusable->where;
+      diagnostics_.error(use.where, use.path,
+                         "type " + in_quotes(use.name) + " cannot be used: " + at.file + ":" +
+                             std::to_string(at.line) + ":" + std::to_string(at.column) + ": " +
+                             unusable->reason);
+    } else {
       diagnostics_.error(use.where, use.path, "unknown type " + in_quotes(use.name));
     }
   }
