@@ -274,8 +274,8 @@ bool DbcParser::nodes() {
     const Token& name = next();
     const bool known = std::any_of(database_->nodes.begin(), database_->nodes.end(),
                                    [&](const DbcNode& node) { return node.name == name.text; });
-    if (known) {
-      error(name, "node '" + std::string(name.text) + "' is already defined");
+    if (known) {  // harmless to the frames: the first one stands
+      warning(name, "node '" + std::string(name.text) + "' is already defined; the second is ignored");
       continue;
     }
     database_->nodes.push_back({std::string(name.text), {}});
@@ -427,7 +427,7 @@ bool DbcParser::value_table() {
   std::map<std::int64_t, std::string> table;
   if (!value_descriptions(table)) return false;
   if (!database_->value_tables.try_emplace(std::string(name->text), std::move(table)).second) {
-    error(*name, "value table '" + std::string(name->text) + "' is already defined");
+    warning(*name, "value table '" + std::string(name->text) + "' is already defined; the second is ignored");
   }
   return true;
 }

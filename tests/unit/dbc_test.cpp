@@ -550,23 +550,25 @@ TEST_F(DbcFixture, DbcErrorByteOrderAndSign) {
             }));
 }
 
-TEST_F(DbcFixture, DbcErrorDuplicates) {
-  EXPECT_EQ(errors_for("BU_: A B A\n"
-                       "BO_ 100 Foo: 8 A\n"
-                       " SG_ S : 0|8@1+ (1,0) [0|0] \"\" B\n"
-                       " SG_ S : 8|8@1+ (1,0) [0|0] \"\" B\n"
-                       "BO_ 101 Foo: 8 A\n"
-                       "BO_ 100 Bar: 8 A\n"
-                       "BO_ 2147483748 Ext: 8 A\n"  // 100 as an extended id: another frame
-                       "VAL_TABLE_ T 0 \"a\" ;\n"
-                       "VAL_TABLE_ T 1 \"b\" ;\n"),
+TEST_F(DbcFixture, DbcDuplicatesAreWarnings) {
+  // A node or value table twice changes no frame; a message twice makes that message unusable.
+  EXPECT_EQ(warnings_for("BU_: A B A\n"
+                         "BO_ 100 Foo: 8 A\n"
+                         " SG_ S : 0|8@1+ (1,0) [0|0] \"\" B\n"
+                         " SG_ S : 8|8@1+ (1,0) [0|0] \"\" B\n"
+                         "BO_ 101 Foo: 8 A\n"
+                         "BO_ 100 Bar: 8 A\n"
+                         "BO_ 2147483748 Ext: 8 A\n"  // 100 as an extended id: another frame
+                         "VAL_TABLE_ T 0 \"a\" ;\n"
+                         "VAL_TABLE_ T 1 \"b\" ;\n",
+                         "bad.dbc"),
             (std::vector<std::string>{
-                "bad.dbc:1:10: node 'A' is already defined",
+                "bad.dbc:1:10: warning: node 'A' is already defined; the second is ignored",
                 "bad.dbc:4:6: warning: message 'Foo' cannot be used: signal 'S' is already defined in message 'Foo'",
                 "bad.dbc:5:9: warning: message 'Foo' cannot be used: message 'Foo' is already defined at line 2",
                 "bad.dbc:6:5: warning: message 'Bar' cannot be used: message id 100 is already used by message "
                 "'Foo'",
-                "bad.dbc:9:12: value table 'T' is already defined",
+                "bad.dbc:9:12: warning: value table 'T' is already defined; the second is ignored",
             }));
   EXPECT_NE(registry_.find("bad::Ext"), nullptr);
   EXPECT_EQ(registry_.find("bad::Bar"), nullptr);
