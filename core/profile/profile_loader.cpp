@@ -13,6 +13,8 @@
 
 #include "loader.hpp"
 
+#include <cctype>
+
 namespace polyport::detail {
 
 std::optional<ApplicationProfile> Loader::run(const fs::path& requested) {
@@ -76,7 +78,9 @@ void Loader::read_type_files(const Reporter& report, pugi::xml_node types, std::
       report.error_text(element, "type file " + in_quotes(file.string()) + " not found");
       continue;
     }
-    if (file.extension() != ".idl" && file.extension() != ".lcm" && file.extension() != ".dbc") {
+    std::string extension = file.extension().string();  // in any case, as add_type_file reads it
+    for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (extension != ".idl" && extension != ".lcm" && extension != ".dbc") {
       report.error_text(element, "unsupported type file " + in_quotes(file.string()) +
                                      " (supported: .idl, .lcm, .dbc)");
       continue;

@@ -6,6 +6,7 @@
 #include "polyport/types/dbc.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <bit>
 #include <cmath>
@@ -1362,6 +1363,20 @@ TEST_F(DbcFixture, DbcRealIntegerVFrameFormatAndDlcCodeLength) {
   EXPECT_TRUE(message("int_vframeformat::Fd").fd);
   EXPECT_TRUE(message("int_vframeformat::FdShort").fd);  // 14: StandardCAN_FD on 8 bytes
   EXPECT_EQ(message("int_vframeformat::FdShort").length, 8u);
+}
+
+TEST_F(DbcFixture, DbcRealUpperCaseExtensionIsADbcFile) {
+  // Tools on Windows write ".DBC"; add_type_file (what the profile loader calls) takes it.
+  const std::filesystem::path file =
+      std::filesystem::path(::testing::TempDir()) / ("polyport_Upper_" + std::to_string(::getpid()) + ".DBC");
+  {
+    std::ofstream out(file, std::ios::binary);
+    out << "BO_ 1 M: 1 N\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" N\n";
+  }
+  EXPECT_TRUE(registry_.add_type_file(file, diagnostics_)) << ::testing::PrintToString(rendered(diagnostics_));
+  EXPECT_TRUE(diagnostics_.all().empty()) << ::testing::PrintToString(rendered(diagnostics_));
+  EXPECT_EQ(dbc_databases(registry_).size(), 1u);
+  std::filesystem::remove(file);
 }
 
 TEST_F(DbcFixture, DbcRealUnknownStatementOfANewerToolIsSkippedWithOneWarning) {

@@ -124,7 +124,7 @@ class TypeRegistry {
   bool add_lcm_text(std::string_view text, const std::string& file_name, Diagnostics& diagnostics);
   bool add_dbc_file(const std::filesystem::path& file, Diagnostics& diagnostics);
   bool add_dbc_text(std::string_view text, const std::string& file_name, Diagnostics& diagnostics);
-  // Chooses by extension: .idl, .lcm, .dbc; anything else is an error.
+  // Chooses by extension, in any case: .idl, .lcm, .dbc (.DBC); anything else is an error.
   bool add_type_file(const std::filesystem::path& file, Diagnostics& diagnostics);
 
   // Keeps an object alive as long as the registry (format-specific facts about types that
