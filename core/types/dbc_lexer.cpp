@@ -213,6 +213,10 @@ class Lexer {
         advance(2);
         continue;
       }
+      if (c == '\r' && peek(1) == '\n') {  // a CRLF file's line break is "\n" in the text too
+        advance(1);
+        continue;
+      }
       if (windows_1252_ && static_cast<unsigned char>(c) >= 0x80) {
         append_windows_1252(token.value, static_cast<unsigned char>(c));
       } else {

@@ -220,7 +220,8 @@ void DbcParser::statement() {
   else if (word == "BO_TX_BU_") {
     Reference reference;
     if (message_reference(reference)) message_references_.push_back(std::move(reference));
-    once(word, keyword, "BO_TX_BU_ statements (more transmitters of a message) are not used by polyport and are ignored");
+    once(word, keyword,
+         "BO_TX_BU_ statements (more transmitters of a message) are not used by polyport and are ignored");
     recover();
   } else if (is_ignored_statement(word)) {
     once(word, keyword, std::string(word) + " statements are not used by polyport and are ignored");
@@ -292,7 +293,8 @@ bool DbcParser::comment() {
   }
   if (kind.is_word("BU_") || kind.is_word("EV_")) {
     if (kind.is_word("EV_")) {
-      once("CM_ EV_", kind, "comments on environment variables (CM_ EV_) are not used by polyport and are ignored");
+      once("CM_ EV_", kind,
+           "comments on environment variables (CM_ EV_) are not used by polyport and are ignored");
     }
     next();
     const Token* name = nullptr;

@@ -1272,6 +1272,16 @@ TEST_F(DbcFixture, DbcRealCrlfLineEndingsReadTheSame) {
   EXPECT_EQ(signal("candb_export::MotorStatus", "Temperature").unit, "\xC2\xB0" "C");
   EXPECT_EQ(message("candb_export::MotorStatus").signals.size(), 4u);
   EXPECT_EQ(message("candb_export::Setpoint").cycle_time_ms, 20u);
+
+  // A comment over two lines reads the same from either file: the line break is "\n".
+  std::string vehicle;
+  for (const char c : read_file(dbc_path("vehicle.dbc"))) {
+    if (c == '\n') vehicle += '\r';
+    vehicle += c;
+  }
+  ASSERT_TRUE(load(vehicle, "vehicle.dbc")) << ::testing::PrintToString(rendered(diagnostics_));
+  EXPECT_EQ(signal("vehicle::EngineData", "EngineSpeed").comment,
+            "Crankshaft speed.\nSecond line, with \"quotes\".");
 }
 
 TEST_F(DbcFixture, DbcRealLatin1UnitIsReadAsWindows1252AndKeptAsUtf8) {
