@@ -13,6 +13,8 @@
 
 #include "loader.hpp"
 
+#include <cctype>
+
 namespace polyport::detail {
 
 std::optional<ApplicationProfile> Loader::run(const fs::path& requested) {
@@ -76,7 +78,9 @@ void Loader::read_type_files(const Reporter& report, pugi::xml_node types, std::
       report.error_text(element, "type file " + in_quotes(file.string()) + " not found");
       continue;
     }
-    if (file.extension() != ".idl" && file.extension() != ".lcm" && file.extension() != ".dbc") {
+    std::string extension = file.extension().string();  // in any case, as add_type_file reads it
+    for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (extension != ".idl" && extension != ".lcm" && extension != ".dbc") {
       report.error_text(element, "unsupported type file " + in_quotes(file.string()) +
                                      " (supported: .idl, .lcm, .dbc)");
       continue;
@@ -97,7 +101,16 @@ void Loader::load_type_files() {
 void Loader::check_types(const LoadedComponent& component) {
   if (!component.readable) return;
   for (const auto& use : component.type_uses) {
-    if (types_.find(use.name) == nullptr) {
+    if (types_.find(use.name) != nullptr) continue;
+    // A type its file declares but cannot provide (a DBC message with overlapping signals):
+    // the file loaded with a warning; naming the type is the error, with the reason.
+    if (const UnusableType* unusable = types_.find_unusable(use.name)) {
+      const SourceLocation& at = unusable->where;
+      diagnostics_.error(use.where, use.path,
+                         "type " + in_quotes(use.name) + " cannot be used: " + at.file + ":" +
+                             std::to_string(at.line) + ":" + std::to_string(at.column) + ": " +
+                             unusable->reason);
+    } else {
       diagnostics_.error(use.where, use.path, "unknown type " + in_quotes(use.name));
     }
   }

@@ -1,5 +1,7 @@
 // The DBC lexer: splits a DBC file into identifiers, numbers, strings and punctuation,
 // marking the first token of each line (statements start a line; recovery relies on it).
+// CR before LF is blank space; a file that is not UTF-8 is Windows-1252 (CANdb++ writes
+// it), and its strings are converted to UTF-8 here, with one warning.
 #include <cstdint>
 #include <cstdio>
 #include <string>
@@ -27,6 +29,62 @@ std::string hex(std::uint64_t value) {
 
 namespace {
 
+// The offset of the first byte that is not part of a well-formed UTF-8 sequence, or npos.
+std::size_t first_non_utf8(std::string_view text) {
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const auto byte = static_cast<unsigned char>(text[i]);
+    std::size_t extra = 0;
+    std::uint32_t min = 0;
+    if (byte < 0x80) {
+      ++i;
+      continue;
+    }
+    if ((byte & 0xE0) == 0xC0) {
+      extra = 1;
+      min = 0x80;
+    } else if ((byte & 0xF0) == 0xE0) {
+      extra = 2;
+      min = 0x800;
+    } else if ((byte & 0xF8) == 0xF0) {
+      extra = 3;
+      min = 0x10000;
+    } else {
+      return i;
+    }
+    if (i + extra >= text.size()) return i;  // cut short by the end of the text
+    std::uint32_t code = byte & (0x3F >> extra);
+    for (std::size_t k = 1; k <= extra; ++k) {
+      const auto next = static_cast<unsigned char>(text[i + k]);
+      if ((next & 0xC0) != 0x80) return i;
+      code = (code << 6) | (next & 0x3F);
+    }
+    if (code < min || code > 0x10FFFF || (code >= 0xD800 && code <= 0xDFFF)) return i;
+    i += extra + 1;
+  }
+  return std::string_view::npos;
+}
+
+// Windows-1252 (a superset of Latin-1 for printable characters) as UTF-8: the encoding
+// Vector's CANdb++ writes, so units such as "°C" arrive as 0xB0 'C'.
+void append_windows_1252(std::string& out, unsigned char byte) {
+  static constexpr std::uint16_t kHigh[32] = {
+      0x20AC, 0x0081, 0x201A, 0x0192, 0x201E, 0x2026, 0x2020, 0x2021, 0x02C6, 0x2030, 0x0160,
+      0x2039, 0x0152, 0x008D, 0x017D, 0x008F, 0x0090, 0x2018, 0x2019, 0x201C, 0x201D, 0x2022,
+      0x2013, 0x2014, 0x02DC, 0x2122, 0x0161, 0x203A, 0x0153, 0x009D, 0x017E, 0x0178};
+  const std::uint32_t code = byte >= 0x80 && byte < 0xA0 ? kHigh[byte - 0x80] : byte;
+  if (code < 0x80) {
+    out += static_cast<char>(code);
+  } else if (code < 0x800) {
+    out += static_cast<char>(0xC0 | (code >> 6));
+    out += static_cast<char>(0x80 | (code & 0x3F));
+  } else {
+    out += static_cast<char>(0xE0 | (code >> 12));
+    out += static_cast<char>(0x80 | ((code >> 6) & 0x3F));
+    out += static_cast<char>(0x80 | (code & 0x3F));
+  }
+}
+
 class Lexer {
  public:
   Lexer(std::string_view text, std::vector<Problem>& problems) : text_(text), problems_(problems) {}
@@ -34,6 +92,20 @@ class Lexer {
   std::vector<Token> run() {
     std::vector<Token> tokens;
     if (text_.substr(0, 3) == "\xEF\xBB\xBF") advance(3);  // UTF-8 byte order mark
+    // A file that is not UTF-8 is read as Windows-1252, and its strings are kept as UTF-8.
+    if (const std::size_t bad = first_non_utf8(text_); bad != std::string_view::npos) {
+      windows_1252_ = true;
+      std::uint32_t line = 1;
+      std::size_t line_start = 0;
+      for (std::size_t i = 0; i < bad; ++i) {
+        if (text_[i] == '\n') {
+          ++line;
+          line_start = i + 1;
+        }
+      }
+      problems_.push_back({line, static_cast<std::uint32_t>(bad - line_start + 1), Severity::warning,
+                           "the file is not UTF-8: its text is read as Windows-1252 (Latin-1)"});
+    }
     while (pos_ < text_.size()) {
       const char c = text_[pos_];
       if (c == '\n') {
@@ -141,7 +213,15 @@ class Lexer {
         advance(2);
         continue;
       }
-      token.value += c;
+      if (c == '\r' && peek(1) == '\n') {  // a CRLF file's line break is "\n" in the text too
+        advance(1);
+        continue;
+      }
+      if (windows_1252_ && static_cast<unsigned char>(c) >= 0x80) {
+        append_windows_1252(token.value, static_cast<unsigned char>(c));
+      } else {
+        token.value += c;
+      }
       if (c == '\n') {
         ++pos_;
         ++line_;
@@ -161,6 +241,7 @@ class Lexer {
   std::uint32_t line_ = 1;
   std::uint32_t column_ = 1;
   bool line_has_token_ = false;
+  bool windows_1252_ = false;
 };
 
 }  // namespace

@@ -43,7 +43,8 @@ std::string describe(const Token& token);
 std::string hex(std::uint64_t value);  // "0x1F"
 
 // Splits DBC text into tokens; the last one is of kind `end`. Stray characters and
-// unterminated strings are appended to `problems`.
+// unterminated strings are appended to `problems`, and a warning when the text is not
+// UTF-8 (its strings are then read as Windows-1252 and kept as UTF-8).
 std::vector<Token> lex_dbc(std::string_view text, std::vector<Problem>& problems);
 
 }  // namespace polyport::dbc_detail

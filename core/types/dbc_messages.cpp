@@ -50,20 +50,17 @@ bool DbcParser::message() {
     message.extended = (dbc_id & kCanExtendedFlag) != 0;
     const std::uint64_t id = dbc_id & ~static_cast<std::uint64_t>(kCanExtendedFlag);
     if (dbc_id > 0xFFFFFFFFu || (message.extended && id > kCanExtendedIdMask)) {
-      error(*id_token, "message id " + std::string(id_token->text) +
-                           " is not a CAN id (29 bits, plus bit 31 for extended frames)");
-      parsed.broken = true;
+      message_problem(parsed, *id_token, "message id " + std::string(id_token->text) +
+                                             " is not a CAN id (29 bits, plus bit 31 for extended frames)");
     } else if (!message.extended && id > kCanStandardIdMask) {
-      error(*id_token, "standard frame id " + hex(id) +
-                           " does not fit in 11 bits (extended ids have bit 31 set: " +
-                           std::to_string(id | kCanExtendedFlag) + ")");
-      parsed.broken = true;
+      message_problem(parsed, *id_token, "standard frame id " + hex(id) +
+                                             " does not fit in 11 bits (extended ids have bit 31 set: " +
+                                             std::to_string(id | kCanExtendedFlag) + ")");
     }
     message.frame_id = static_cast<std::uint32_t>(id & 0xFFFFFFFFu);
     if (length > kCanMaxDataLength) {
-      error(*length_token, "message length " + std::string(length_token->text) +
-                               " is more than the 64 bytes of a CAN FD frame");
-      parsed.broken = true;
+      message_problem(parsed, *length_token, "message length " + std::string(length_token->text) +
+                                                 " is more than the 64 bytes of a CAN FD frame");
     } else if (!is_can_data_length(static_cast<std::uint32_t>(length))) {
       if (length <= 15) {
         // Some tools write the CAN FD DLC code instead of the length.
@@ -72,9 +69,9 @@ bool DbcParser::message() {
                                    " read as a CAN FD DLC code: " + std::to_string(bytes) + " bytes");
         length = bytes;
       } else {
-        error(*length_token, "message length " + std::string(length_token->text) +
-                                 " is not a CAN FD frame length (0-8, 12, 16, 20, 24, 32, 48, 64)");
-        parsed.broken = true;
+        message_problem(parsed, *length_token,
+                        "message length " + std::string(length_token->text) +
+                            " is not a CAN FD frame length (0-8, 12, 16, 20, 24, 32, 48, 64)");
       }
     }
     message.length = static_cast<std::uint32_t>(std::min<std::uint64_t>(length, kCanMaxDataLength));
@@ -82,14 +79,13 @@ bool DbcParser::message() {
   }
 
   if (auto it = message_names_.find(message.name); it != message_names_.end()) {
-    error(*name, "message '" + message.name + "' is already defined at line " +
-                     std::to_string(messages_[it->second].message.where.line));
-    parsed.broken = true;
+    message_problem(parsed, *name, "message '" + message.name + "' is already defined at line " +
+                                       std::to_string(messages_[it->second].message.where.line));
   }
   if (auto it = message_ids_.find(dbc_id); it != message_ids_.end()) {
-    error(*id_token, "message id " + std::string(id_token->text) + " is already used by message '" +
-                         messages_[it->second].message.name + "'");
-    parsed.broken = true;
+    message_problem(parsed, *id_token, "message id " + std::string(id_token->text) +
+                                           " is already used by message '" +
+                                           messages_[it->second].message.name + "'");
   }
   const std::size_t index = messages_.size();
   message_names_.emplace(message.name, index);
@@ -119,6 +115,7 @@ bool DbcParser::signal() {
   if (!expect_identifier("the signal name", name)) return fail();
   signal.name = std::string(name->text);
   signal.where = where(*name);
+  const Token* extended_mux = nullptr;  // `m<N>M`: multiplexed and a multiplexer itself
   if (peek().kind == TokenKind::identifier) {
     const Token& mux = next();
     const std::string_view text = mux.text;
@@ -127,12 +124,14 @@ bool DbcParser::signal() {
     } else if (text.size() > 1 && text[0] == 'm' && is_digit(text[1])) {
       std::size_t digits = 1;
       while (digits < text.size() && is_digit(text[digits])) ++digits;
-      if (digits < text.size()) {
-        error(mux, "extended multiplexing ('" + std::string(text) + "') is not supported");
+      if (digits + 1 == text.size() && text.back() == 'M') {
+        extended_mux = &mux;
+      } else if (digits < text.size()) {
+        error(mux, "expected 'M', 'm<value>' or ':' after the signal name, found " + describe(mux));
         return fail();
       }
       std::uint64_t value = 0;
-      const auto [end, status] = std::from_chars(text.data() + 1, text.data() + text.size(), value);
+      const auto [end, status] = std::from_chars(text.data() + 1, text.data() + digits, value);
       if (status != std::errc() || value > static_cast<std::uint64_t>(INT64_MAX)) {
         error(mux, "multiplexer value in '" + std::string(text) + "' is out of range");
         return fail();
@@ -199,30 +198,40 @@ bool DbcParser::signal() {
   }
   if (parsed == nullptr) return true;  // the message line was bad: syntax checked only
 
-  // Layout, in the order a reader checks a signal line.
+  // Layout, in the order a reader checks a signal line. A problem here is the message's
+  // own (message_problem): the file loads, the message is unusable.
+  if (extended_mux != nullptr) {
+    message_problem(*parsed, *extended_mux,
+                    "extended multiplexing ('" + std::string(extended_mux->text) + "') is not supported", true);
+    layout_ok = false;
+  }
   if (signal.factor == 0) {
-    error(*factor_token, "the factor of signal '" + signal.name + "' must not be 0");
+    message_problem(*parsed, *factor_token, "the factor of signal '" + signal.name + "' must not be 0");
     layout_ok = false;
   }
   if (length < 1 || length > 64) {
-    error(*length_token, "signal length must be 1 to 64 bits, found " + std::string(length_token->text));
+    message_problem(*parsed, *length_token,
+                    "signal length must be 1 to 64 bits, found " + std::string(length_token->text));
     layout_ok = false;
   }
   if (start >= kMaxFrameBits) {
-    error(*start_token, "start bit " + std::string(start_token->text) + " is outside a 64-byte frame");
+    message_problem(*parsed, *start_token,
+                    "start bit " + std::string(start_token->text) + " is outside a 64-byte frame");
     layout_ok = false;
   }
   DbcMessage& message = parsed->message;
   for (const DbcSignal& other : message.signals) {
     if (other.name == signal.name) {
-      error(*name, "signal '" + signal.name + "' is already defined in message '" + message.name + "'");
+      message_problem(*parsed, *name,
+                      "signal '" + signal.name + "' is already defined in message '" + message.name + "'");
       layout_ok = false;
       break;
     }
   }
   if (signal.mux_role == DbcMuxRole::multiplexer && message.multiplexer >= 0) {
-    error(*name, "message '" + message.name + "' already has a multiplexer, '" +
-                     message.signals[static_cast<std::size_t>(message.multiplexer)].name + "'");
+    message_problem(*parsed, *name, "message '" + message.name + "' already has a multiplexer, '" +
+                                        message.signals[static_cast<std::size_t>(message.multiplexer)].name +
+                                        "'");
     layout_ok = false;
   }
   // From here on the line has been read to its end: an error marks the message, and the
@@ -254,8 +263,8 @@ bool DbcParser::signal() {
     return true;
   }
   if (first + signal.length > message.length * 8) {
-    error(*name, "signal '" + signal.name + "' does not fit in the " + std::to_string(message.length) +
-                     "-byte message '" + message.name + "'");
+    message_problem(*parsed, *name, "signal '" + signal.name + "' does not fit in the " +
+                                        std::to_string(message.length) + "-byte message '" + message.name + "'");
     return reject();
   }
 
@@ -278,8 +287,8 @@ bool DbcParser::signal() {
     else if (group == nullptr && muxed_owner_[bit] >= 0) overlapped = muxed_owner_[bit];
   }
   if (overlapped >= 0) {
-    error(*name, "signal '" + signal.name + "' overlaps signal '" +
-                     message.signals[static_cast<std::size_t>(overlapped)].name + "'");
+    message_problem(*parsed, *name, "signal '" + signal.name + "' overlaps signal '" +
+                                        message.signals[static_cast<std::size_t>(overlapped)].name + "'");
     return reject();
   }
   for (std::uint32_t i = 0; i < signal.length; ++i) {

@@ -33,8 +33,25 @@ enum class ObjectKind : std::uint8_t { none, node, message, signal, env_var };
 
 struct ParsedMessage {
   DbcMessage message;
-  bool broken = false;    // has an error of its own: not registered
+  bool broken = false;    // not registered: a syntax error in its lines, or `problem`
   bool pseudo = false;    // VECTOR__INDEPENDENT_SIG_MSG: accepted, never registered
+  // A problem confined to this message (overlapping signals, a signal beyond its length,
+  // extended multiplexing, ...): the file still loads, the message is declared unusable
+  // (TypeRegistry::declare_unusable) and only a profile that names it fails.
+  std::string problem;
+  std::uint32_t problem_line = 0;
+  std::uint32_t problem_column = 0;
+  std::uint32_t more_problems = 0;
+  bool extended_multiplexing = false;  // its problem is extended multiplexing
+};
+
+// Constructs reported once per kind and file: the first one's place, and how many there are.
+struct Occurrences {
+  std::string kind;
+  std::uint32_t line = 0;
+  std::uint32_t column = 0;
+  std::string message;
+  std::size_t count = 0;
 };
 
 // A statement that names a message (and maybe a signal), resolved after the file is read.
@@ -144,6 +161,40 @@ class DbcParser {
   void warning(const Token& at, std::string message) {
     problems_.push_back({at.line, at.column, Severity::warning, std::move(message)});
   }
+  // One warning per `kind` and file, at the first occurrence, ending in "(N in this file)".
+  void once(std::string_view kind, const Token& at, std::string message) {
+    for (Occurrences& item : occurrences_) {
+      if (item.kind != kind) continue;
+      ++item.count;
+      // Statements are resolved after the file is read, not in file order: keep the first.
+      if (at.line < item.line || (at.line == item.line && at.column < item.column)) {
+        item.line = at.line;
+        item.column = at.column;
+        item.message = std::move(message);
+      }
+      return;
+    }
+    occurrences_.push_back({std::string(kind), at.line, at.column, std::move(message), 1});
+  }
+  // A problem confined to one message (ParsedMessage::problem); the first one is kept,
+  // except that extended multiplexing, often the cause of the others, replaces it.
+  void message_problem(ParsedMessage& parsed, const Token& at, std::string message,
+                       bool extended_multiplexing = false) {
+    parsed.broken = true;
+    if (!parsed.problem.empty() && !(extended_multiplexing && !parsed.extended_multiplexing)) {
+      ++parsed.more_problems;
+      return;
+    }
+    if (!parsed.problem.empty()) ++parsed.more_problems;
+    parsed.problem = std::move(message);
+    parsed.problem_line = at.line;
+    parsed.problem_column = at.column;
+    parsed.extended_multiplexing = extended_multiplexing;
+  }
+  // A statement naming a message, signal or node the file does not define: ignored.
+  void dangling(const Token& at, const std::string& message) {
+    once("dangling", at, message + "; statements naming what the file does not define are ignored");
+  }
   SourceLocation where(const Token& token) const { return {file_, token.line, token.column}; }
 
   bool expect(char punct, std::string_view context);
@@ -176,6 +227,7 @@ class DbcParser {
   std::vector<PendingValueType> value_types_;
   std::vector<PendingMuxValues> mux_values_;
   std::vector<Reference> message_references_;  // BO_TX_BU_
+  std::vector<Occurrences> occurrences_;
   std::map<std::string, AttributeDefinition, std::less<>> attribute_definitions_;
 };
 

@@ -18,7 +18,7 @@ namespace polyport::dbc_detail {
 ParsedMessage* DbcParser::resolve_message(const Reference& reference) {
   auto it = message_ids_.find(reference.dbc_id);
   if (it == message_ids_.end()) {
-    error(reference.id_token, "no message has id " + std::string(reference.id_token.text));
+    dangling(reference.id_token, "no message has id " + std::string(reference.id_token.text));
     return nullptr;
   }
   return &messages_[it->second];
@@ -30,8 +30,8 @@ DbcSignal* DbcParser::resolve_signal(ParsedMessage& parsed, const Reference& ref
   }
   // A signal whose line had an error is not in the list; that error is reported already.
   if (!parsed.broken) {
-    error(reference.signal_token,
-          "message '" + parsed.message.name + "' has no signal '" + reference.signal + "'");
+    dangling(reference.signal_token,
+             "message '" + parsed.message.name + "' has no signal '" + reference.signal + "'");
   }
   return nullptr;
 }
@@ -44,7 +44,7 @@ void DbcParser::resolve() {
       auto node = std::find_if(database_->nodes.begin(), database_->nodes.end(),
                                [&](const DbcNode& item) { return item.name == comment.node; });
       if (node == database_->nodes.end()) {
-        error(comment.node_token, "no node is named '" + comment.node + "'");
+        dangling(comment.node_token, "no node is named '" + comment.node + "'");
       } else {
         node->comment = comment.text;
       }
@@ -60,13 +60,17 @@ void DbcParser::resolve() {
     }
   }
 
-  // Attributes the frames depend on; defaults first, then the per-message values.
+  // Attributes the frames depend on; defaults first, then the per-message values. A bad
+  // value is ignored with a warning (once per file): the frame layout does not depend on it.
+  const auto bad_value = [&](const Token& value, std::string message) {
+    once("attribute value", value, std::move(message) + "; the value is ignored");
+  };
   const auto enum_label = [&](const AttributeDefinition& definition, const Token& value) -> std::string {
     if (value.kind == TokenKind::string) return value.value;
-    std::int64_t index = 0;
-    if (!integer_value(value, "an enum attribute's value", index)) return {};
-    if (index < 0 || static_cast<std::uint64_t>(index) >= definition.labels.size()) {
-      error(value, "enum value " + std::string(value.text) + " is out of range");
+    double index = -1;
+    if (!parse_double(value.text, index) || index < 0 || index != std::floor(index) ||
+        index >= static_cast<double>(definition.labels.size())) {
+      bad_value(value, "enum value " + std::string(value.text) + " is out of range");
       return {};
     }
     return definition.labels[static_cast<std::size_t>(index)];
@@ -78,13 +82,19 @@ void DbcParser::resolve() {
       double ms = -1;
       if (value.kind != TokenKind::number || !parse_double(value.text, ms) || ms < 0 ||
           ms != std::floor(ms) || ms > 0xFFFFFFFFu) {
-        error(value, "GenMsgCycleTime must be a whole number of milliseconds, found " + describe(value));
+        bad_value(value, "GenMsgCycleTime must be a whole number of milliseconds, found " + describe(value));
         return;
       }
       message.cycle_time_ms = static_cast<std::uint32_t>(ms);
     } else if (name == "VFrameFormat" && definition != attribute_definitions_.end()) {
-      const std::string label = enum_label(definition->second, value);
-      message.fd = message.length > 8 || label.find("FD") != std::string::npos;
+      // Vector's values: 0 StandardCAN, 1 ExtendedCAN, 14 StandardCAN_FD, 15 ExtendedCAN_FD;
+      // some files define it as an INT instead of an ENUM.
+      double number = -1;
+      const bool fd = definition->second.type == "ENUM"
+                          ? enum_label(definition->second, value).find("FD") != std::string::npos
+                          : value.kind == TokenKind::number && parse_double(value.text, number) &&
+                                (number == 14 || number == 15);
+      message.fd = message.length > 8 || fd;
     } else if (name == "CANFD_BRS" && definition != attribute_definitions_.end()) {
       const std::string label = definition->second.labels.empty() ? std::string(value.text)
                                                                   : enum_label(definition->second, value);
@@ -106,7 +116,7 @@ void DbcParser::resolve() {
   }
   for (const PendingAttribute& attribute : attributes_) {
     if (attribute_definitions_.find(attribute.name) == attribute_definitions_.end()) {
-      warning(attribute.name_token, "attribute '" + attribute.name + "' is not defined (BA_DEF_)");
+      once("BA_ undefined", attribute.name_token, "attribute '" + attribute.name + "' is not defined (BA_DEF_)");
     }
     if (attribute.kind != ObjectKind::message && attribute.kind != ObjectKind::signal) continue;
     ParsedMessage* parsed = resolve_message(attribute.target);
@@ -135,13 +145,12 @@ void DbcParser::resolve() {
                          : type.kind == 2 ? DbcFloatKind::float64 : DbcFloatKind::none;
     const std::uint32_t needed = type.kind == 1 ? 32 : type.kind == 2 ? 64 : 0;
     if (needed != 0 && signal->length != needed) {
-      error(type.value, std::string(type.kind == 1 ? "a float" : "a double") + " signal needs " +
-                            std::to_string(needed) + " bits; '" + signal->name + "' has " +
-                            std::to_string(signal->length));
-      parsed->broken = true;
+      message_problem(*parsed, type.value,
+                      std::string(type.kind == 1 ? "a float" : "a double") + " signal needs " +
+                          std::to_string(needed) + " bits; '" + signal->name + "' has " +
+                          std::to_string(signal->length));
     } else if (needed != 0 && signal->mux_role == DbcMuxRole::multiplexer) {
-      error(type.value, "multiplexer '" + signal->name + "' must be an integer signal");
-      parsed->broken = true;
+      message_problem(*parsed, type.value, "multiplexer '" + signal->name + "' must be an integer signal");
     }
   }
 
@@ -149,7 +158,14 @@ void DbcParser::resolve() {
     ParsedMessage* parsed = resolve_message(mux.target);
     if (parsed == nullptr) continue;
     DbcSignal* signal = resolve_signal(*parsed, mux.target);
-    if (signal == nullptr) continue;
+    if (signal == nullptr) {
+      // Dropped for a problem of its own (a second multiplexer, say): extended multiplexing.
+      if (parsed->broken) {
+        message_problem(*parsed, mux.target.signal_token, "extended multiplexing (SG_MUL_VAL_) is not supported",
+                        true);
+      }
+      continue;
+    }
     const DbcMessage& message = parsed->message;
     const bool restates_plain = signal->mux_role == DbcMuxRole::multiplexed && message.multiplexer >= 0 &&
                                 message.signals[static_cast<std::size_t>(message.multiplexer)].name ==
@@ -157,8 +173,8 @@ void DbcParser::resolve() {
                                 mux.ranges.size() == 1 && mux.ranges[0].first == signal->mux_value &&
                                 mux.ranges[0].second == signal->mux_value;
     if (!restates_plain) {
-      error(mux.target.signal_token, "extended multiplexing (SG_MUL_VAL_) is not supported");
-      parsed->broken = true;
+      message_problem(*parsed, mux.target.signal_token, "extended multiplexing (SG_MUL_VAL_) is not supported",
+                      true);
     }
   }
 }
@@ -169,10 +185,11 @@ void DbcParser::check_message(ParsedMessage& parsed) {
   if (message.multiplexer >= 0 || parsed.broken) return;
   for (const DbcSignal& signal : message.signals) {
     if (signal.mux_role != DbcMuxRole::multiplexed) continue;
-    problems_.push_back({signal.where.line, signal.where.column, Severity::error,
-                         "signal '" + signal.name + "' is multiplexed but message '" + message.name +
-                             "' has no multiplexer (M) signal"});
-    parsed.broken = true;
+    Token at;
+    at.line = signal.where.line;
+    at.column = signal.where.column;
+    message_problem(parsed, at, "signal '" + signal.name + "' is multiplexed but message '" + message.name +
+                                    "' has no multiplexer (M) signal");
     return;
   }
 }

@@ -31,7 +31,7 @@ constexpr std::string_view kKeywords[] = {
     "SIG_VALTYPE_", "SIGTYPE_VALTYPE_", "BO_TX_BU_", "BA_DEF_REL_", "BA_REL_",
     "BA_DEF_DEF_REL_", "BU_SG_REL_", "BU_EV_REL_", "BU_BO_REL_", "SG_MUL_VAL_", "BS_", "BU_",
     "BO_", "SG_", "EV_"};
-// Statements accepted and not modelled: skipped up to their `;`.
+// Statements accepted and not modelled: skipped up to their `;`, one warning per keyword.
 constexpr std::string_view kIgnoredStatements[] = {
     "NS_DESC_", "CAT_DEF_", "CAT_", "FILTER", "EV_DATA_", "ENVVAR_DATA_", "SGTYPE_",
     "SGTYPE_VAL_", "BA_DEF_SGTYPE_", "BA_SGTYPE_", "SIG_TYPE_REF_", "SIG_GROUP_",
@@ -220,8 +220,15 @@ void DbcParser::statement() {
   else if (word == "BO_TX_BU_") {
     Reference reference;
     if (message_reference(reference)) message_references_.push_back(std::move(reference));
+    once(word, keyword,
+         "BO_TX_BU_ statements (more transmitters of a message) are not used by polyport and are ignored");
     recover();
   } else if (is_ignored_statement(word)) {
+    once(word, keyword, std::string(word) + " statements are not used by polyport and are ignored");
+    recover();
+  } else if (looks_like_keyword(word)) {
+    // A newer tool's statement: skipped like the ones polyport does not use.
+    once(word, keyword, "unknown statement '" + std::string(word) + "' is ignored");
     recover();
   } else {
     error(keyword, "unknown keyword '" + std::string(word) + "'");
@@ -268,8 +275,8 @@ bool DbcParser::nodes() {
     const Token& name = next();
     const bool known = std::any_of(database_->nodes.begin(), database_->nodes.end(),
                                    [&](const DbcNode& node) { return node.name == name.text; });
-    if (known) {
-      error(name, "node '" + std::string(name.text) + "' is already defined");
+    if (known) {  // harmless to the frames: the first one stands
+      warning(name, "node '" + std::string(name.text) + "' is already defined; the second is ignored");
       continue;
     }
     database_->nodes.push_back({std::string(name.text), {}});
@@ -285,6 +292,10 @@ bool DbcParser::comment() {
     return expect(';', "after the comment");
   }
   if (kind.is_word("BU_") || kind.is_word("EV_")) {
+    if (kind.is_word("EV_")) {
+      once("CM_ EV_", kind,
+           "comments on environment variables (CM_ EV_) are not used by polyport and are ignored");
+    }
     next();
     const Token* name = nullptr;
     if (!expect_identifier(kind.is_word("BU_") ? "a node name" : "an environment variable name", name)) {
@@ -352,7 +363,7 @@ bool DbcParser::attribute_default() {
   next();
   auto it = attribute_definitions_.find(name->value);
   if (it == attribute_definitions_.end()) {
-    warning(*name, "default for undefined attribute '" + name->value + "'");
+    once("BA_DEF_DEF_ undefined", *name, "default for undefined attribute '" + name->value + "' is ignored");
   } else {
     it->second.default_value = value;
     it->second.has_default = true;
@@ -418,14 +429,15 @@ bool DbcParser::value_table() {
   std::map<std::int64_t, std::string> table;
   if (!value_descriptions(table)) return false;
   if (!database_->value_tables.try_emplace(std::string(name->text), std::move(table)).second) {
-    error(*name, "value table '" + std::string(name->text) + "' is already defined");
+    warning(*name, "value table '" + std::string(name->text) + "' is already defined; the second is ignored");
   }
   return true;
 }
 
 bool DbcParser::values() {
   if (peek().kind == TokenKind::identifier) {  // an environment variable's values
-    next();
+    once("VAL_ EV_", next(),
+         "value descriptions of environment variables (VAL_) are not used by polyport and are ignored");
     std::map<std::int64_t, std::string> ignored;
     return value_descriptions(ignored);
   }

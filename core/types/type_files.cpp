@@ -4,6 +4,7 @@
 // and the parsers: the parsers use only the registry's public API, and the registry's own
 // sources (types.cpp) know no parser.
 #include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -37,7 +38,9 @@ bool TypeRegistry::add_file(const std::filesystem::path& file, Diagnostics& diag
 }
 
 bool TypeRegistry::add_type_file(const std::filesystem::path& file, Diagnostics& diagnostics) {
-  const std::string extension = file.extension().string();
+  // In any case: tools on Windows write `.DBC` as often as `.dbc`.
+  std::string extension = file.extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (extension == ".idl") return add_idl_file(file, diagnostics);
   if (extension == ".lcm") return add_lcm_file(file, diagnostics);
   if (extension == ".dbc") return add_dbc_file(file, diagnostics);

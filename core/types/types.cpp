@@ -516,6 +516,16 @@ void TypeRegistry::declare(Type& type) {
 
 void TypeRegistry::add_anonymous(Type& type) { anonymous_.emplace(type.name, &type); }
 
+const UnusableType* TypeRegistry::find_unusable(std::string_view name) const noexcept {
+  auto it = unusable_.find(strip_global(name));
+  return it == unusable_.end() ? nullptr : &it->second;
+}
+
+void TypeRegistry::declare_unusable(UnusableType unusable) {
+  std::string name = unusable.name;
+  unusable_.try_emplace(std::move(name), std::move(unusable));
+}
+
 const Type* TypeRegistry::find_exact(std::string_view name) const noexcept {
   auto it = by_name_.find(name);
   return it == by_name_.end() ? nullptr : it->second;

@@ -6,6 +6,7 @@
 #include "polyport/types/dbc.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <bit>
 #include <cmath>
@@ -100,15 +101,47 @@ class DbcFixture : public ::testing::Test {
     EXPECT_TRUE(load(text, file)) << ::testing::PrintToString(rendered(diagnostics_));
     EXPECT_TRUE(diagnostics_.all().empty()) << ::testing::PrintToString(rendered(diagnostics_));
   }
+  // vehicle.dbc uses every statement; those polyport does not model give one warning per kind.
   void load_vehicle() {
     ASSERT_TRUE(registry_.add_dbc_file(dbc_path("vehicle.dbc"), diagnostics_))
         << ::testing::PrintToString(rendered(diagnostics_));
-    ASSERT_TRUE(diagnostics_.all().empty()) << ::testing::PrintToString(rendered(diagnostics_));
+    const std::string file = dbc_path("vehicle.dbc");
+    std::vector<std::string> expected;
+    for (const char* warning : {
+             ":87:1: warning: BO_TX_BU_ statements (more transmitters of a message) are not used by polyport "
+             "and are ignored (1 in this file)",
+             ":89:1: warning: EV_ statements are not used by polyport and are ignored (1 in this file)",
+             ":97:5: warning: comments on environment variables (CM_ EV_) are not used by polyport and are "
+             "ignored (1 in this file)",
+             ":106:1: warning: BA_DEF_REL_ statements are not used by polyport and are ignored (1 in this file)",
+             ":114:1: warning: BA_DEF_DEF_REL_ statements are not used by polyport and are ignored (1 in this "
+             "file)",
+             ":126:1: warning: BA_REL_ statements are not used by polyport and are ignored (1 in this file)",
+             ":130:6: warning: value descriptions of environment variables (VAL_) are not used by polyport and "
+             "are ignored (1 in this file)",
+             ":131:1: warning: SIG_GROUP_ statements are not used by polyport and are ignored (1 in this file)",
+         }) {
+      expected.push_back(file + warning);
+    }
+    ASSERT_EQ(rendered(diagnostics_), expected);
+    diagnostics_ = Diagnostics();
   }
   // The problems of text that must be refused.
   std::vector<std::string> errors_for(std::string_view text) {
     EXPECT_FALSE(load(text, "bad.dbc"));
     return rendered(diagnostics_);
+  }
+  // The warnings of text that loads (problems confined to messages, ignored statements).
+  std::vector<std::string> warnings_for(std::string_view text, const std::string& file = "odd.dbc") {
+    EXPECT_TRUE(load(text, file)) << ::testing::PrintToString(rendered(diagnostics_));
+    return rendered(diagnostics_);
+  }
+  // Why a message of the file cannot be used ("" when the registry does not say).
+  std::string unusable(std::string_view name) {
+    const UnusableType* found = registry_.find_unusable(name);
+    if (found == nullptr) return "";
+    return found->where.file + ":" + std::to_string(found->where.line) + ":" +
+           std::to_string(found->where.column) + ": " + found->reason;
   }
 
   const Type& type(std::string_view name) {
@@ -360,8 +393,10 @@ TEST_F(DbcFixture, DbcLookupFindsMessagesByCanIdAndName) {
 
 TEST_F(DbcFixture, DbcParserLoadsAFileOnceAndThroughAddTypeFile) {
   ASSERT_TRUE(registry_.add_type_file(dbc_path("vehicle.dbc"), diagnostics_));
+  const std::size_t warnings = diagnostics_.all().size();  // the ignored statements (load_vehicle)
   EXPECT_TRUE(registry_.add_dbc_file(dbc_path("vehicle.dbc"), diagnostics_));  // skipped, no redefinition
-  EXPECT_TRUE(diagnostics_.all().empty()) << ::testing::PrintToString(rendered(diagnostics_));
+  EXPECT_FALSE(diagnostics_.has_errors()) << ::testing::PrintToString(rendered(diagnostics_));
+  EXPECT_EQ(diagnostics_.all().size(), warnings);
   EXPECT_EQ(dbc_databases(registry_).size(), 1u);
   EXPECT_NE(registry_.find("::vehicle::BatteryFD"), nullptr);
 }
@@ -423,46 +458,80 @@ TEST_F(DbcFixture, DbcErrorSyntax) {
   EXPECT_EQ(registry_.find("bad::Bar"), nullptr);
 }
 
-TEST_F(DbcFixture, DbcErrorSignalOutsideTheFrame) {
-  EXPECT_EQ(errors_for("BO_ 1 Short: 2 Node\n"
-                       " SG_ Big : 8|16@1+ (1,0) [0|0] \"\" Node\n"
-                       " SG_ Moto : 7|17@0+ (1,0) [0|0] \"\" Node\n"
-                       " SG_ Far : 600|8@1+ (1,0) [0|0] \"\" Node\n"
-                       " SG_ Long : 0|65@1+ (1,0) [0|0] \"\" Node\n"
-                       " SG_ Empty : 0|0@1+ (1,0) [0|0] \"\" Node\n"
-                       "BO_ 2 Ok: 2 Node\n"
-                       " SG_ Moto : 7|16@0+ (1,0) [0|0] \"\" Node\n"),
+TEST_F(DbcFixture, DbcMessageWithASignalOutsideTheFrameIsUnusableAndTheFileLoads) {
+  EXPECT_EQ(warnings_for("BO_ 1 Short: 2 Node\n"
+                         " SG_ Big : 8|16@1+ (1,0) [0|0] \"\" Node\n"
+                         "BO_ 2 Moto: 2 Node\n"
+                         " SG_ Moto : 7|17@0+ (1,0) [0|0] \"\" Node\n"
+                         "BO_ 3 Far: 8 Node\n"
+                         " SG_ Far : 600|8@1+ (1,0) [0|0] \"\" Node\n"
+                         "BO_ 4 Long: 8 Node\n"
+                         " SG_ Long : 0|65@1+ (1,0) [0|0] \"\" Node\n"
+                         "BO_ 5 Empty: 8 Node\n"
+                         " SG_ Empty : 0|0@1+ (1,0) [0|0] \"\" Node\n"
+                         " SG_ Big : 8|16@1+ (1,0) [0|0] \"\" Node\n"
+                         "BO_ 6 Ok: 2 Node\n"
+                         " SG_ Moto : 7|16@0+ (1,0) [0|0] \"\" Node\n"),
             (std::vector<std::string>{
-                "bad.dbc:2:6: signal 'Big' does not fit in the 2-byte message 'Short'",
-                "bad.dbc:3:6: signal 'Moto' does not fit in the 2-byte message 'Short'",
-                "bad.dbc:4:12: start bit 600 is outside a 64-byte frame",
-                "bad.dbc:5:15: signal length must be 1 to 64 bits, found 65",
-                "bad.dbc:6:16: signal length must be 1 to 64 bits, found 0",
+                "odd.dbc:2:6: warning: message 'Short' cannot be used: signal 'Big' does not fit in the 2-byte "
+                "message 'Short'",
+                "odd.dbc:4:6: warning: message 'Moto' cannot be used: signal 'Moto' does not fit in the 2-byte "
+                "message 'Moto'",
+                "odd.dbc:6:12: warning: message 'Far' cannot be used: start bit 600 is outside a 64-byte frame",
+                "odd.dbc:8:15: warning: message 'Long' cannot be used: signal length must be 1 to 64 bits, found 65",
+                "odd.dbc:10:16: warning: message 'Empty' cannot be used: signal length must be 1 to 64 bits, found 0",
             }));
-  EXPECT_EQ(registry_.find("bad::Short"), nullptr);
-  EXPECT_NE(registry_.find("bad::Ok"), nullptr);
+  EXPECT_EQ(registry_.find("odd::Short"), nullptr);
+  EXPECT_EQ(unusable("odd::Short"), "odd.dbc:2:6: signal 'Big' does not fit in the 2-byte message 'Short'");
+  EXPECT_EQ(unusable("::odd::Far"), "odd.dbc:6:12: start bit 600 is outside a 64-byte frame");
+  EXPECT_NE(registry_.find("odd::Ok"), nullptr);
+  EXPECT_EQ(unusable("odd::Ok"), "");
+  EXPECT_EQ(unusable("odd::Nothing"), "");
 }
 
-TEST_F(DbcFixture, DbcErrorOverlappingSignals) {
-  EXPECT_EQ(errors_for("BO_ 1 M: 8 Node\n"
-                       " SG_ A : 0|8@1+ (1,0) [0|0] \"\" Node\n"
-                       " SG_ B : 7|8@0+ (1,0) [0|0] \"\" Node\n"            // byte 0 again
-                       " SG_ C : 12|8@1+ (1,0) [0|0] \"\" Node\n"           // byte 1 high nibble
-                       " SG_ D : 15|4@0+ (1,0) [0|0] \"\" Node\n"           // also there
-                       "BO_ 2 X: 8 Node\n"
-                       " SG_ Sel M : 0|8@1+ (1,0) [0|0] \"\" Node\n"
-                       " SG_ P m1 : 8|8@1+ (1,0) [0|0] \"\" Node\n"
-                       " SG_ Q m2 : 8|16@1+ (1,0) [0|0] \"\" Node\n"        // other page: fine
-                       " SG_ R m1 : 15|2@1+ (1,0) [0|0] \"\" Node\n"        // same page as P
-                       " SG_ S : 20|8@1+ (1,0) [0|0] \"\" Node\n"           // under Q's page
-                       " SG_ T m3 : 4|8@1+ (1,0) [0|0] \"\" Node\n"),       // under the multiplexer
+TEST_F(DbcFixture, DbcMessageWithOverlappingSignalsIsUnusableAndTheFileLoads) {
+  EXPECT_EQ(warnings_for("BO_ 1 M1: 8 Node\n"
+                         " SG_ A : 0|8@1+ (1,0) [0|0] \"\" Node\n"
+                         " SG_ B : 7|8@0+ (1,0) [0|0] \"\" Node\n"            // byte 0 again
+                         "BO_ 2 M2: 8 Node\n"
+                         " SG_ C : 12|8@1+ (1,0) [0|0] \"\" Node\n"           // byte 1 high nibble
+                         " SG_ D : 15|4@0+ (1,0) [0|0] \"\" Node\n"           // also there
+                         "BO_ 3 X1: 8 Node\n"
+                         " SG_ Sel M : 0|8@1+ (1,0) [0|0] \"\" Node\n"
+                         " SG_ P m1 : 8|8@1+ (1,0) [0|0] \"\" Node\n"
+                         " SG_ Q m2 : 8|16@1+ (1,0) [0|0] \"\" Node\n"        // other page: fine
+                         " SG_ R m1 : 15|2@1+ (1,0) [0|0] \"\" Node\n"        // same page as P
+                         "BO_ 4 X2: 8 Node\n"
+                         " SG_ Sel M : 0|8@1+ (1,0) [0|0] \"\" Node\n"
+                         " SG_ Q m2 : 8|16@1+ (1,0) [0|0] \"\" Node\n"
+                         " SG_ S : 20|8@1+ (1,0) [0|0] \"\" Node\n"           // under Q's page
+                         "BO_ 5 X3: 8 Node\n"
+                         " SG_ Sel M : 0|8@1+ (1,0) [0|0] \"\" Node\n"
+                         " SG_ T m3 : 4|8@1+ (1,0) [0|0] \"\" Node\n"         // under the multiplexer
+                         "BO_ 6 Twice: 8 Node\n"
+                         " SG_ A : 0|8@1+ (1,0) [0|0] \"\" Node\n"
+                         " SG_ B : 0|8@1+ (1,0) [0|0] \"\" Node\n"
+                         " SG_ C : 4|8@1+ (1,0) [0|0] \"\" Node\n"
+                         " SG_ D : 8|8@1+ (1,0) [0|0] \"\" Node\n"
+                         "BO_ 7 Fine: 8 Node\n"
+                         " SG_ Sel M : 0|8@1+ (1,0) [0|0] \"\" Node\n"
+                         " SG_ P m1 : 8|8@1+ (1,0) [0|0] \"\" Node\n"
+                         " SG_ Q m2 : 8|16@1+ (1,0) [0|0] \"\" Node\n"),
             (std::vector<std::string>{
-                "bad.dbc:3:6: signal 'B' overlaps signal 'A'",
-                "bad.dbc:5:6: signal 'D' overlaps signal 'C'",
-                "bad.dbc:10:6: signal 'R' overlaps signal 'P'",
-                "bad.dbc:11:6: signal 'S' overlaps signal 'Q'",
-                "bad.dbc:12:6: signal 'T' overlaps signal 'Sel'",
+                "odd.dbc:3:6: warning: message 'M1' cannot be used: signal 'B' overlaps signal 'A'",
+                "odd.dbc:6:6: warning: message 'M2' cannot be used: signal 'D' overlaps signal 'C'",
+                "odd.dbc:11:6: warning: message 'X1' cannot be used: signal 'R' overlaps signal 'P'",
+                "odd.dbc:15:6: warning: message 'X2' cannot be used: signal 'S' overlaps signal 'Q'",
+                "odd.dbc:18:6: warning: message 'X3' cannot be used: signal 'T' overlaps signal 'Sel'",
+                // One warning per message, with how many more problems it has.
+                "odd.dbc:21:6: warning: message 'Twice' cannot be used: signal 'B' overlaps signal 'A' (and 1 "
+                "more problem)",
             }));
+  for (const char* name : {"odd::M1", "odd::M2", "odd::X1", "odd::X2", "odd::X3", "odd::Twice"}) {
+    EXPECT_EQ(registry_.find(name), nullptr) << name;
+  }
+  EXPECT_EQ(unusable("odd::X3"), "odd.dbc:18:6: signal 'T' overlaps signal 'Sel'");
+  EXPECT_EQ(message("odd::Fine").signals.size(), 3u);
 }
 
 TEST_F(DbcFixture, DbcErrorByteOrderAndSign) {
@@ -470,79 +539,90 @@ TEST_F(DbcFixture, DbcErrorByteOrderAndSign) {
                        " SG_ A : 0|8@2+ (1,0) [0|0] \"\" Node\n"
                        " SG_ B : 8|8@1* (1,0) [0|0] \"\" Node\n"
                        " SG_ C : 16|8@x+ (1,0) [0|0] \"\" Node\n"
+                       "BO_ 2 Z: 8 Node\n"
                        " SG_ D : 24|8@1+ (0,0) [0|0] \"\" Node\n"),
             (std::vector<std::string>{
                 "bad.dbc:2:14: byte order must be 0 (Motorola, big-endian) or 1 (Intel, little-endian), found '2'",
                 "bad.dbc:3:15: unexpected character '*'",
                 "bad.dbc:3:17: expected '+' (unsigned) or '-' (signed) after the byte order, found '('",
                 "bad.dbc:4:15: expected the byte order (0 or 1) after '@', found 'x'",
-                "bad.dbc:5:19: the factor of signal 'D' must not be 0",
+                // A factor of 0 is the message's own problem, not a syntax error.
+                "bad.dbc:6:19: warning: message 'Z' cannot be used: the factor of signal 'D' must not be 0",
             }));
 }
 
-TEST_F(DbcFixture, DbcErrorDuplicates) {
-  EXPECT_EQ(errors_for("BU_: A B A\n"
-                       "BO_ 100 Foo: 8 A\n"
-                       " SG_ S : 0|8@1+ (1,0) [0|0] \"\" B\n"
-                       " SG_ S : 8|8@1+ (1,0) [0|0] \"\" B\n"
-                       "BO_ 101 Foo: 8 A\n"
-                       "BO_ 100 Bar: 8 A\n"
-                       "BO_ 2147483748 Ext: 8 A\n"  // 100 as an extended id: another frame
-                       "VAL_TABLE_ T 0 \"a\" ;\n"
-                       "VAL_TABLE_ T 1 \"b\" ;\n"),
+TEST_F(DbcFixture, DbcDuplicatesAreWarnings) {
+  // A node or value table twice changes no frame; a message twice makes that message unusable.
+  EXPECT_EQ(warnings_for("BU_: A B A\n"
+                         "BO_ 100 Foo: 8 A\n"
+                         " SG_ S : 0|8@1+ (1,0) [0|0] \"\" B\n"
+                         " SG_ S : 8|8@1+ (1,0) [0|0] \"\" B\n"
+                         "BO_ 101 Foo: 8 A\n"
+                         "BO_ 100 Bar: 8 A\n"
+                         "BO_ 2147483748 Ext: 8 A\n"  // 100 as an extended id: another frame
+                         "VAL_TABLE_ T 0 \"a\" ;\n"
+                         "VAL_TABLE_ T 1 \"b\" ;\n",
+                         "bad.dbc"),
             (std::vector<std::string>{
-                "bad.dbc:1:10: node 'A' is already defined",
-                "bad.dbc:4:6: signal 'S' is already defined in message 'Foo'",
-                "bad.dbc:5:9: message 'Foo' is already defined at line 2",
-                "bad.dbc:6:5: message id 100 is already used by message 'Foo'",
-                "bad.dbc:9:12: value table 'T' is already defined",
+                "bad.dbc:1:10: warning: node 'A' is already defined; the second is ignored",
+                "bad.dbc:4:6: warning: message 'Foo' cannot be used: signal 'S' is already defined in message 'Foo'",
+                "bad.dbc:5:9: warning: message 'Foo' cannot be used: message 'Foo' is already defined at line 2",
+                "bad.dbc:6:5: warning: message 'Bar' cannot be used: message id 100 is already used by message "
+                "'Foo'",
+                "bad.dbc:9:12: warning: value table 'T' is already defined; the second is ignored",
             }));
   EXPECT_NE(registry_.find("bad::Ext"), nullptr);
   EXPECT_EQ(registry_.find("bad::Bar"), nullptr);
+  EXPECT_EQ(registry_.find("bad::Foo"), nullptr);
+  // The first reason stands for a name declared twice.
+  EXPECT_EQ(unusable("bad::Foo"), "bad.dbc:4:6: signal 'S' is already defined in message 'Foo'");
 }
 
 TEST_F(DbcFixture, DbcErrorValueTypeLengthMismatch) {
   EXPECT_EQ(errors_for("BO_ 100 M: 12 Node\n"
                        " SG_ F : 0|16@1- (1,0) [0|0] \"\" Node\n"
-                       " SG_ D : 16|32@1- (1,0) [0|0] \"\" Node\n"
                        " SG_ Ok : 55|32@0- (1,0) [0|0] \"\" Node\n"
+                       "BO_ 101 N: 8 Node\n"
+                       " SG_ D : 16|32@1- (1,0) [0|0] \"\" Node\n"
                        "SIG_VALTYPE_ 100 F : 1;\n"
-                       "SIG_VALTYPE_ 100 D : 2;\n"
+                       "SIG_VALTYPE_ 101 D : 2;\n"
                        "SIG_VALTYPE_ 100 Ok : 1;\n"
                        "SIG_VALTYPE_ 100 Ok : 3;\n"),
             (std::vector<std::string>{
-                "bad.dbc:5:22: a float signal needs 32 bits; 'F' has 16",
-                "bad.dbc:6:22: a double signal needs 64 bits; 'D' has 32",
-                "bad.dbc:8:23: signal value type must be 0 (integer), 1 (float) or 2 (double), found '3'",
+                "bad.dbc:6:22: warning: message 'M' cannot be used: a float signal needs 32 bits; 'F' has 16",
+                "bad.dbc:7:22: warning: message 'N' cannot be used: a double signal needs 64 bits; 'D' has 32",
+                "bad.dbc:9:23: signal value type must be 0 (integer), 1 (float) or 2 (double), found '3'",
             }));
   EXPECT_EQ(registry_.find("bad::M"), nullptr);
+  EXPECT_EQ(registry_.find("bad::N"), nullptr);
 }
 
-TEST_F(DbcFixture, DbcErrorUnknownReferences) {
-  EXPECT_EQ(errors_for("BU_: Node\n"
-                       "BO_ 100 M: 8 Node\n"
-                       " SG_ A : 0|8@1+ (1,0) [0|0] \"\" Node\n"
-                       "CM_ BO_ 200 \"no such message\";\n"
-                       "CM_ SG_ 100 Missing \"no such signal\";\n"
-                       "CM_ BU_ Nobody \"no such node\";\n"
-                       "BA_DEF_ BO_ \"GenMsgCycleTime\" INT 0 65535;\n"
-                       "BA_ \"GenMsgCycleTime\" BO_ 300 10;\n"
-                       "BA_ \"GenMsgCycleTime\" BO_ 100 -5;\n"
-                       "VAL_ 100 Gone 0 \"x\" ;\n"
-                       "SIG_VALTYPE_ 7 A : 1;\n"
-                       "BO_TX_BU_ 8 : Node;\n"),
+TEST_F(DbcFixture, DbcStatementsNamingWhatTheFileDoesNotDefineAreIgnoredWithOneWarning) {
+  // Real files keep comments and value tables of messages they no longer define (or that
+  // another file defines, as opendbc's generated files do).
+  EXPECT_EQ(warnings_for("BU_: Node\n"
+                         "BO_ 100 M: 8 Node\n"
+                         " SG_ A : 0|8@1+ (1,0) [0|0] \"\" Node\n"
+                         "CM_ BO_ 200 \"no such message\";\n"
+                         "CM_ SG_ 100 Missing \"no such signal\";\n"
+                         "CM_ BU_ Nobody \"no such node\";\n"
+                         "BA_DEF_ BO_ \"GenMsgCycleTime\" INT 0 65535;\n"
+                         "BA_ \"GenMsgCycleTime\" BO_ 300 10;\n"
+                         "BA_ \"GenMsgCycleTime\" BO_ 100 -5;\n"
+                         "VAL_ 100 Gone 0 \"x\" ;\n"
+                         "SIG_VALTYPE_ 7 A : 1;\n"
+                         "BO_TX_BU_ 8 : Node;\n"),
             (std::vector<std::string>{
-                "bad.dbc:4:9: no message has id 200",
-                "bad.dbc:5:13: message 'M' has no signal 'Missing'",
-                "bad.dbc:6:9: no node is named 'Nobody'",
-                "bad.dbc:8:27: no message has id 300",
-                "bad.dbc:9:31: GenMsgCycleTime must be a whole number of milliseconds, found '-5'",
-                "bad.dbc:10:10: message 'M' has no signal 'Gone'",
-                "bad.dbc:11:14: no message has id 7",
-                "bad.dbc:12:11: no message has id 8",
+                "odd.dbc:4:9: warning: no message has id 200; statements naming what the file does not define "
+                "are ignored (7 in this file)",
+                "odd.dbc:9:31: warning: GenMsgCycleTime must be a whole number of milliseconds, found '-5'; the "
+                "value is ignored (1 in this file)",
+                "odd.dbc:12:1: warning: BO_TX_BU_ statements (more transmitters of a message) are not used by "
+                "polyport and are ignored (1 in this file)",
             }));
   // Problems in statements about a message do not unregister it.
-  EXPECT_NE(registry_.find("bad::M"), nullptr);
+  EXPECT_NE(registry_.find("odd::M"), nullptr);
+  EXPECT_EQ(message("odd::M").cycle_time_ms, 0u);
 }
 
 TEST_F(DbcFixture, DbcErrorFrameIdsAndLengths) {
@@ -552,11 +632,15 @@ TEST_F(DbcFixture, DbcErrorFrameIdsAndLengths) {
                        "BO_ 2 Odd: 17 N\n"
                        "BO_ 3 Huge: 99999999999999999999 N\n"),
             (std::vector<std::string>{
-                "bad.dbc:1:5: standard frame id 0x800 does not fit in 11 bits (extended ids have bit 31 set: "
-                "2147485696)",
-                "bad.dbc:2:5: message id 4026531840 is not a CAN id (29 bits, plus bit 31 for extended frames)",
-                "bad.dbc:3:13: message length 65 is more than the 64 bytes of a CAN FD frame",
-                "bad.dbc:4:12: message length 17 is not a CAN FD frame length (0-8, 12, 16, 20, 24, 32, 48, 64)",
+                "bad.dbc:1:5: warning: message 'TooBig' cannot be used: standard frame id 0x800 does not fit in 11 "
+                "bits (extended ids have bit 31 set: 2147485696)",
+                "bad.dbc:2:5: warning: message 'NotCan' cannot be used: message id 4026531840 is not a CAN id (29 "
+                "bits, plus bit 31 for extended frames)",
+                "bad.dbc:3:13: warning: message 'Long' cannot be used: message length 65 is more than the 64 bytes "
+                "of a CAN FD frame",
+                "bad.dbc:4:12: warning: message 'Odd' cannot be used: message length 17 is not a CAN FD frame "
+                "length (0-8, 12, 16, 20, 24, 32, 48, 64)",
+                // A number no DBC writer produces is a syntax error.
                 "bad.dbc:5:13: the message length in bytes 99999999999999999999 is out of range",
             }));
   EXPECT_TRUE(registry_.declared().empty());
@@ -578,14 +662,18 @@ TEST_F(DbcFixture, DbcErrorMultiplexing) {
                        "SIG_VALTYPE_ 4 F : 1;\n"
                        "SG_MUL_VAL_ 3 C A 2-3;\n"),
             (std::vector<std::string>{
-                "bad.dbc:2:6: signal 'P' is multiplexed but message 'NoSelector' has no multiplexer (M) signal",
-                "bad.dbc:5:6: message 'TwoSelectors' already has a multiplexer, 'A'",
-                "bad.dbc:8:8: extended multiplexing ('m1M') is not supported",
+                "bad.dbc:2:6: warning: message 'NoSelector' cannot be used: signal 'P' is multiplexed but message "
+                "'NoSelector' has no multiplexer (M) signal",
+                "bad.dbc:5:6: warning: message 'TwoSelectors' cannot be used: message 'TwoSelectors' already has a "
+                "multiplexer, 'A'",
+                "bad.dbc:8:8: warning: messages with extended multiplexing cannot be used (polyport does not "
+                "support it); the first is 'Extended' (1 in this file)",
                 "bad.dbc:10:8: expected 'M', 'm<value>' or ':' after the signal name, found 'x'",
-                "bad.dbc:13:20: multiplexer 'F' must be an integer signal",
-                "bad.dbc:14:15: extended multiplexing (SG_MUL_VAL_) is not supported",
+                "bad.dbc:13:20: warning: message 'FloatSelector' cannot be used: multiplexer 'F' must be an "
+                "integer signal",
             }));
   EXPECT_TRUE(registry_.declared().empty());
+  EXPECT_EQ(unusable("bad::Extended"), "bad.dbc:8:8: extended multiplexing ('m1M') is not supported");
 }
 
 TEST_F(DbcFixture, DbcErrorStrayTokensAndStatements) {
@@ -603,7 +691,7 @@ TEST_F(DbcFixture, DbcErrorStrayTokensAndStatements) {
             (std::vector<std::string>{
                 "bad.dbc:1:2: SG_ outside a message (it must follow a BO_ line)",
                 "bad.dbc:3:1: expected a DBC keyword, found '42'",
-                "bad.dbc:4:1: unknown keyword 'FOO_'",
+                "bad.dbc:4:1: warning: unknown statement 'FOO_' is ignored (1 in this file)",
                 "bad.dbc:5:14: unexpected 'extra' after the message's transmitter",
                 "bad.dbc:8:5: expected a comment string or BU_, BO_, SG_, EV_ after CM_, found 'XX_'",
                 "bad.dbc:9:21: unknown attribute type 'LIST' (expected INT, HEX, FLOAT, STRING or ENUM)",
@@ -616,20 +704,25 @@ TEST_F(DbcFixture, DbcErrorStrayTokensAndStatements) {
 }
 
 TEST_F(DbcFixture, DbcParserSurvivesEveryTruncationOfARealFile) {
-  const std::string text = read_file(dbc_path("vehicle.dbc"));
-  ASSERT_GT(text.size(), 1000u);
-  const auto lines = static_cast<std::uint32_t>(std::count(text.begin(), text.end(), '\n')) + 1;
-  for (std::size_t size = 0; size <= text.size(); ++size) {
-    TypeRegistry registry;
-    Diagnostics diagnostics;
-    registry.add_dbc_text(std::string_view(text).substr(0, size), "cut.dbc", diagnostics);
-    for (const Diagnostic& item : diagnostics.all()) {
-      ASSERT_GE(item.where.line, 1u) << size << ": " << item.to_string();
-      ASSERT_LE(item.where.line, lines) << size << ": " << item.to_string();
-      ASSERT_GE(item.where.column, 1u) << size << ": " << item.to_string();
+  // vehicle.dbc, and candb_export.dbc for the Windows-1252 and ignored-statement paths.
+  for (const char* name : {"vehicle.dbc", "candb_export.dbc"}) {
+    const std::string text = read_file(dbc_path(name));
+    ASSERT_GT(text.size(), 1000u) << name;
+    const auto lines = static_cast<std::uint32_t>(std::count(text.begin(), text.end(), '\n')) + 1;
+    for (std::size_t size = 0; size <= text.size(); ++size) {
+      TypeRegistry registry;
+      Diagnostics diagnostics;
+      registry.add_dbc_text(std::string_view(text).substr(0, size), "cut.dbc", diagnostics);
+      for (const Diagnostic& item : diagnostics.all()) {
+        ASSERT_GE(item.where.line, 1u) << name << " " << size << ": " << item.to_string();
+        ASSERT_LE(item.where.line, lines) << name << " " << size << ": " << item.to_string();
+        ASSERT_GE(item.where.column, 1u) << name << " " << size << ": " << item.to_string();
+      }
+      // Whatever registered can be coded.
+      for (const Type* declared : registry.declared()) {
+        ASSERT_TRUE(make_dbc_codec(*declared).ok()) << name << " " << size;
+      }
     }
-    // Whatever registered can be coded.
-    for (const Type* declared : registry.declared()) ASSERT_TRUE(make_dbc_codec(*declared).ok()) << size;
   }
 }
 
@@ -1075,6 +1168,236 @@ TEST_F(DbcFixture, DbcCodecRefusesTypesThatAreNotDbcMessages) {
   ASSERT_TRUE(dispatched.ok());
   EXPECT_EQ(dispatched.value()->format(), WireFormat::dbc);
   EXPECT_EQ(&dispatched.value()->type(), &type("vehicle::EngineData"));
+}
+
+// ---------------------------------------------------------------------------------------
+// DBC files as real vehicle and robot projects write them. The files in tests/data/dbc are
+// our own, each reproducing the constructs and quirks met in public DBC files (Vector
+// CANdb++ exports, openpilot's opendbc, cantools' test files, J1939 exporters): each loads,
+// with exactly one warning per construct kind polyport ignores, and decodes right.
+
+// The diagnostics without the data folder, so that they read as "file.dbc:line:col: ...".
+std::vector<std::string> relative(const Diagnostics& diagnostics) {
+  const std::string prefix = dbc_path("");
+  std::vector<std::string> out;
+  for (std::string line : rendered(diagnostics)) {
+    if (line.rfind(prefix, 0) == 0) line.erase(0, prefix.size());
+    out.push_back(std::move(line));
+  }
+  return out;
+}
+
+const std::vector<std::string> kCandbWarnings = {
+    "candb_export.dbc:3:57: warning: the file is not UTF-8: its text is read as Windows-1252 (Latin-1)",
+    "candb_export.dbc:55:1: warning: BO_TX_BU_ statements (more transmitters of a message) are not used by "
+    "polyport and are ignored (1 in this file)",
+    "candb_export.dbc:57:1: warning: EV_ statements are not used by polyport and are ignored (2 in this file)",
+    "candb_export.dbc:60:1: warning: ENVVAR_DATA_ statements are not used by polyport and are ignored (1 in "
+    "this file)",
+    "candb_export.dbc:62:1: warning: SGTYPE_ statements are not used by polyport and are ignored (1 in this "
+    "file)",
+    "candb_export.dbc:63:1: warning: SIG_TYPE_REF_ statements are not used by polyport and are ignored (1 in "
+    "this file)",
+    "candb_export.dbc:65:1: warning: CAT_DEF_ statements are not used by polyport and are ignored (1 in this "
+    "file)",
+    "candb_export.dbc:66:1: warning: CAT_ statements are not used by polyport and are ignored (1 in this file)",
+    "candb_export.dbc:67:1: warning: FILTER statements are not used by polyport and are ignored (1 in this "
+    "file)",
+    "candb_export.dbc:73:5: warning: comments on environment variables (CM_ EV_) are not used by polyport and "
+    "are ignored (1 in this file)",
+    "candb_export.dbc:81:1: warning: BA_DEF_REL_ statements are not used by polyport and are ignored (2 in "
+    "this file)",
+    "candb_export.dbc:90:1: warning: BA_DEF_DEF_REL_ statements are not used by polyport and are ignored (2 "
+    "in this file)",
+    "candb_export.dbc:99:1: warning: BA_REL_ statements are not used by polyport and are ignored (2 in this "
+    "file)",
+    "candb_export.dbc:102:6: warning: value descriptions of environment variables (VAL_) are not used by "
+    "polyport and are ignored (1 in this file)",
+    "candb_export.dbc:103:1: warning: SIG_GROUP_ statements are not used by polyport and are ignored (2 in "
+    "this file)",
+};
+
+TEST_F(DbcFixture, DbcRealCandbExportLoadsWithOneWarningPerIgnoredKind) {
+  ASSERT_TRUE(registry_.add_dbc_file(dbc_path("candb_export.dbc"), diagnostics_))
+      << ::testing::PrintToString(rendered(diagnostics_));
+  EXPECT_EQ(relative(diagnostics_), kCandbWarnings);
+
+  // What polyport models is all there; Windows-1252 text arrives as UTF-8.
+  const DbcSignal& temperature = signal("candb_export::MotorStatus", "Temperature");
+  EXPECT_EQ(temperature.unit, "\xC2\xB0" "C");
+  EXPECT_EQ(temperature.comment, "Winding temperature \xE2\x80\x93 measured, not estimated.");
+  EXPECT_EQ(temperature.receivers, (std::vector<std::string>{"Controller", "Display"}));
+  EXPECT_EQ(signal("candb_export::MotorStatus", "State").value_table.at(2), "Running");
+  EXPECT_EQ(message("candb_export::MotorStatus").cycle_time_ms, 10u);
+  EXPECT_EQ(message("candb_export::MotorStatus").comment, "Motor status, every 10 ms.");
+  const DbcMessage& setpoint = message("candb_export::Setpoint");
+  EXPECT_TRUE(setpoint.extended);
+  EXPECT_EQ(setpoint.frame_id, 0x18FEFEFEu);
+  EXPECT_EQ(setpoint.transmitter, "Controller");
+  EXPECT_EQ(setpoint.cycle_time_ms, 20u);
+  EXPECT_FALSE(setpoint.fd);
+  EXPECT_EQ(signal("candb_export::Setpoint", "Torque").float_kind, DbcFloatKind::float32);
+  const DbcDatabase* database = find_dbc_database(registry_, "candb_export");
+  ASSERT_NE(database, nullptr);
+  EXPECT_EQ(database->value_tables.at("OnOff").at(1), "On");
+  EXPECT_EQ(database->nodes.at(0).comment, "Motor controller");
+
+  auto status = codec("candb_export::MotorStatus");
+  ASSERT_NE(status, nullptr);
+  Sample decoded(type("candb_export::MotorStatus"));
+  ASSERT_TRUE(decode(*status, Bytes{0x64, 0x38, 0xFF, 0x02, 0x30, 0x39, 0x00, 0x00}, decoded).ok());
+  EXPECT_DOUBLE_EQ(decoded.get("Temperature"), 60.0);
+  EXPECT_DOUBLE_EQ(decoded.get("Current"), -2.0);
+  EXPECT_DOUBLE_EQ(decoded.get("State"), 2.0);
+  EXPECT_DOUBLE_EQ(decoded.get("Voltage"), 12.345);
+  auto torque = codec("candb_export::Setpoint");
+  ASSERT_NE(torque, nullptr);
+  Sample command(type("candb_export::Setpoint"));
+  ASSERT_TRUE(decode(*torque, Bytes{0x00, 0x00, 0x48, 0x41, 0x01, 0x00, 0x00, 0x00}, command).ok());
+  EXPECT_DOUBLE_EQ(command.get("Torque"), 12.5);
+  EXPECT_DOUBLE_EQ(command.get("Enable"), 1.0);
+}
+
+TEST_F(DbcFixture, DbcRealCrlfLineEndingsReadTheSame) {
+  // CANdb++ on Windows writes CRLF; the same file with CRLF gives the same warnings and types.
+  std::string text = read_file(dbc_path("candb_export.dbc"));
+  ASSERT_GT(text.size(), 1000u);
+  std::string crlf;
+  for (const char c : text) {
+    if (c == '\n') crlf += '\r';
+    crlf += c;
+  }
+  ASSERT_TRUE(load(crlf, "candb_export.dbc")) << ::testing::PrintToString(rendered(diagnostics_));
+  EXPECT_EQ(rendered(diagnostics_), kCandbWarnings);
+  EXPECT_EQ(signal("candb_export::MotorStatus", "Temperature").unit, "\xC2\xB0" "C");
+  EXPECT_EQ(message("candb_export::MotorStatus").signals.size(), 4u);
+  EXPECT_EQ(message("candb_export::Setpoint").cycle_time_ms, 20u);
+
+  // A comment over two lines reads the same from either file: the line break is "\n".
+  std::string vehicle;
+  for (const char c : read_file(dbc_path("vehicle.dbc"))) {
+    if (c == '\n') vehicle += '\r';
+    vehicle += c;
+  }
+  ASSERT_TRUE(load(vehicle, "vehicle.dbc")) << ::testing::PrintToString(rendered(diagnostics_));
+  EXPECT_EQ(signal("vehicle::EngineData", "EngineSpeed").comment,
+            "Crankshaft speed.\nSecond line, with \"quotes\".");
+}
+
+TEST_F(DbcFixture, DbcRealLatin1UnitIsReadAsWindows1252AndKeptAsUtf8) {
+  // A unit as Latin-1 bytes ("\xB0" is the degree sign), and one of Windows-1252's own
+  // characters ("\x80", the euro sign).
+  EXPECT_EQ(warnings_for("BO_ 1 M: 2 N\n"
+                         " SG_ T : 0|8@1+ (1,-40) [-40|215] \"\xB0" "C\" N\n"
+                         " SG_ P : 8|8@1+ (1,0) [0|0] \"\x80/h\" N\n",
+                         "latin.dbc"),
+            std::vector<std::string>{
+                "latin.dbc:2:36: warning: the file is not UTF-8: its text is read as Windows-1252 (Latin-1)"});
+  EXPECT_EQ(signal("latin::M", "T").unit, "\xC2\xB0" "C");
+  EXPECT_EQ(signal("latin::M", "P").unit, "\xE2\x82\xAC/h");
+  // The same unit in UTF-8 is taken as it is, without a warning.
+  diagnostics_ = Diagnostics();
+  load_ok("BO_ 1 M: 1 N\n SG_ T : 0|8@1+ (1,-40) [-40|215] \"\xC2\xB0" "C\" N\n", "utf8.dbc");
+  EXPECT_EQ(signal("utf8::M", "T").unit, "\xC2\xB0" "C");
+}
+
+TEST_F(DbcFixture, DbcRealOpendbcStyleFileLoadsAndOnlyTheBrokenMessageIsUnusable) {
+  ASSERT_TRUE(registry_.add_dbc_file(dbc_path("opendbc_style.dbc"), diagnostics_))
+      << ::testing::PrintToString(rendered(diagnostics_));
+  EXPECT_EQ(relative(diagnostics_),
+            (std::vector<std::string>{
+                "opendbc_style.dbc:18:7: warning: message 'STEER_STATUS' cannot be used: signal "
+                "'INTERNAL_ANGLE' overlaps signal 'HANDS_ON' (and 1 more problem)",
+                "opendbc_style.dbc:26:9: warning: no message has id 806; statements naming what the file does "
+                "not define are ignored (2 in this file)",
+            }));
+  EXPECT_EQ(registry_.find("opendbc_style::STEER_STATUS"), nullptr);
+  const UnusableType* steer = registry_.find_unusable("opendbc_style::STEER_STATUS");
+  ASSERT_NE(steer, nullptr);
+  EXPECT_EQ(steer->reason, "signal 'INTERNAL_ANGLE' overlaps signal 'HANDS_ON'");
+  EXPECT_EQ(steer->where.line, 18u);
+  EXPECT_EQ(steer->where.column, 7u);
+
+  auto motors = codec("opendbc_style::MOTORS_DATA");
+  ASSERT_NE(motors, nullptr);
+  Sample decoded(type("opendbc_style::MOTORS_DATA"));
+  ASSERT_TRUE(decode(*motors, Bytes{0xFF, 0x9C, 0x00, 0x64, 0x00, 0x00, 0x07, 0xAB}, decoded).ok());
+  EXPECT_DOUBLE_EQ(decoded.get("SPEED_L"), -100.0);
+  EXPECT_DOUBLE_EQ(decoded.get("SPEED_R"), 100.0);
+  EXPECT_DOUBLE_EQ(decoded.get("COUNTER"), 7.0);
+  EXPECT_DOUBLE_EQ(decoded.get("CHECKSUM"), 171.0);
+  EXPECT_EQ(signal("opendbc_style::MOTORS_DATA", "COUNTER").value_table.at(15), "wrap");
+  EXPECT_EQ(message("opendbc_style::MOTORS_DATA").transmitter, "XXX");
+  const DbcMessage& radar = message("opendbc_style::RADAR_TRACK");
+  EXPECT_EQ(radar.length, 64u);
+  EXPECT_TRUE(radar.fd);
+}
+
+TEST_F(DbcFixture, DbcRealExtendedMultiplexingMakesItsMessagesUnusableWithOneWarning) {
+  ASSERT_TRUE(registry_.add_dbc_file(dbc_path("extended_mux.dbc"), diagnostics_))
+      << ::testing::PrintToString(rendered(diagnostics_));
+  EXPECT_EQ(relative(diagnostics_),
+            std::vector<std::string>{
+                "extended_mux.dbc:20:11: warning: messages with extended multiplexing cannot be used (polyport "
+                "does not support it); the first is 'Cascaded' (3 in this file)"});
+  for (const char* name : {"extended_mux::Ranges", "extended_mux::Cascaded", "extended_mux::TwoMultiplexers"}) {
+    EXPECT_EQ(registry_.find(name), nullptr) << name;
+    EXPECT_NE(registry_.find_unusable(name), nullptr) << name;
+  }
+  EXPECT_EQ(registry_.find_unusable("extended_mux::Cascaded")->reason,
+            "extended multiplexing ('m2M') is not supported");
+  EXPECT_EQ(registry_.find_unusable("extended_mux::Ranges")->reason,
+            "extended multiplexing (SG_MUL_VAL_) is not supported");
+
+  // SG_MUL_VAL_ that only restates m<N> is plain multiplexing.
+  auto plain = codec("extended_mux::Plain");
+  ASSERT_NE(plain, nullptr);
+  Sample decoded(type("extended_mux::Plain"));
+  ASSERT_TRUE(decode(*plain, Bytes{0x01, 0x34, 0x12, 0x00, 0x00, 0x00, 0x00, 0x00}, decoded).ok());
+  EXPECT_DOUBLE_EQ(decoded.get("Page"), 1.0);
+  EXPECT_DOUBLE_EQ(decoded.get("Voltage"), 46.60);
+  EXPECT_TRUE(std::isnan(decoded.get("Temperature")));
+  ASSERT_TRUE(decode(*plain, Bytes{0x02, 0xF6, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00}, decoded).ok());
+  EXPECT_DOUBLE_EQ(decoded.get("Temperature"), -10.0);
+  EXPECT_TRUE(std::isnan(decoded.get("Voltage")));
+}
+
+TEST_F(DbcFixture, DbcRealIntegerVFrameFormatAndDlcCodeLength) {
+  ASSERT_TRUE(registry_.add_dbc_file(dbc_path("int_vframeformat.dbc"), diagnostics_))
+      << ::testing::PrintToString(rendered(diagnostics_));
+  EXPECT_EQ(relative(diagnostics_),
+            std::vector<std::string>{
+                "int_vframeformat.dbc:10:20: warning: length 10 read as a CAN FD DLC code: 16 bytes"});
+  EXPECT_FALSE(message("int_vframeformat::Classic").fd);  // 3: J1939PG, the default
+  EXPECT_EQ(message("int_vframeformat::Fd").length, 16u);
+  EXPECT_TRUE(message("int_vframeformat::Fd").fd);
+  EXPECT_TRUE(message("int_vframeformat::FdShort").fd);  // 14: StandardCAN_FD on 8 bytes
+  EXPECT_EQ(message("int_vframeformat::FdShort").length, 8u);
+}
+
+TEST_F(DbcFixture, DbcRealUpperCaseExtensionIsADbcFile) {
+  // Tools on Windows write ".DBC"; add_type_file (what the profile loader calls) takes it.
+  const std::filesystem::path file =
+      std::filesystem::path(::testing::TempDir()) / ("polyport_Upper_" + std::to_string(::getpid()) + ".DBC");
+  {
+    std::ofstream out(file, std::ios::binary);
+    out << "BO_ 1 M: 1 N\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" N\n";
+  }
+  EXPECT_TRUE(registry_.add_type_file(file, diagnostics_)) << ::testing::PrintToString(rendered(diagnostics_));
+  EXPECT_TRUE(diagnostics_.all().empty()) << ::testing::PrintToString(rendered(diagnostics_));
+  EXPECT_EQ(dbc_databases(registry_).size(), 1u);
+  std::filesystem::remove(file);
+}
+
+TEST_F(DbcFixture, DbcRealUnknownStatementOfANewerToolIsSkippedWithOneWarning) {
+  EXPECT_EQ(warnings_for("BO_ 1 M: 1 N\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" N\n"
+                         "NEW_THING_ 1 \"a\" 2;\nNEW_THING_ 2 \"b\";\nSIG_GROUP_ 1 G 1 : S;\n"),
+            (std::vector<std::string>{
+                "odd.dbc:3:1: warning: unknown statement 'NEW_THING_' is ignored (2 in this file)",
+                "odd.dbc:5:1: warning: SIG_GROUP_ statements are not used by polyport and are ignored (1 in this "
+                "file)",
+            }));
+  EXPECT_NE(registry_.find("odd::M"), nullptr);
 }
 
 TEST(DbcHelpers, CanFdLengthsAndNetworkBits) {

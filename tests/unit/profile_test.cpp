@@ -847,6 +847,35 @@ TEST_F(ProfileAliases, ColumnsCountCharactersAndSkipTheByteOrderMark) {
   EXPECT_EQ(profile->where.column, 1U);
 }
 
+// A DBC file with a message that cannot be used (overlapping signals, as real files have)
+// loads with a warning; only a port that names that message is an error, with the reason.
+TEST_F(ProfileAliases, UnusableDbcMessageIsAnErrorOnlyWhereAPortUsesIt) {
+  write(dir_ / "bus.dbc",
+        "BO_ 1 Good: 8 N\n SG_ A : 0|8@1+ (1,0) [0|0] \"\" N\n"
+        "BO_ 2 Broken: 8 N\n SG_ A : 0|8@1+ (1,0) [0|0] \"\" N\n SG_ B : 4|8@1+ (1,0) [0|0] \"\" N\n"
+        "SIG_GROUP_ 1 G 1 : A;\n");
+  const std::string types = "  <types><file>bus.dbc</file></types>\n";
+  const auto port = [](const std::string& type) {
+    return "  <ports>\n    <data_port><name>p</name><data_type>" + type +
+           "</data_type><usage>output</usage></data_port>\n  </ports>\n";
+  };
+  const std::vector<std::string> file_warnings = {
+      "bus.dbc:5:6: warning: message 'Broken' cannot be used: signal 'B' overlaps signal 'A'",
+      "bus.dbc:6:1: warning: SIG_GROUP_ statements are not used by polyport and are ignored (1 in this file)",
+  };
+
+  const auto good = load_component(types + port("bus::Good"));
+  ASSERT_TRUE(good.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_EQ(messages(), file_warnings);
+
+  EXPECT_FALSE(load_component(types + port("bus::Broken")).has_value());
+  std::vector<std::string> expected = file_warnings;
+  expected.push_back(
+      "Comp.xml:6:41: /component_profile/ports/data_port/data_type: type 'bus::Broken' cannot be used: "
+      "bus.dbc:5:6: signal 'B' overlaps signal 'A'");
+  EXPECT_EQ(messages(), expected);
+}
+
 // The number, list and matrix spellings of a <field>, which the XSD's Number, NumberList and
 // Matrix types accept too.
 class ProfileMappingSyntax : public ProfileAliases {

@@ -12,9 +12,12 @@
 namespace polyport {
 
 // Parses DBC text (from `file_name`: its stem names the types' namespace) and registers
-// every message without errors as "<db>::<Message>"; the registry keeps the DbcDatabase
-// alive. Problems go to diagnostics as file:line:col, sorted by position (warnings too);
-// returns false if there was any error.
+// every message without problems as "<db>::<Message>"; the registry keeps the DbcDatabase
+// alive. A message with a problem of its own is a warning and is declared unusable (a
+// profile naming it fails with the reason); ignored statements are one warning per kind.
+// Text that is not UTF-8 is read as Windows-1252. Problems go to diagnostics as
+// file:line:col, sorted by position (warnings too); returns false if there was any error
+// (a syntax error: the file is not DBC as any tool writes it).
 bool parse_dbc(std::string_view text, const std::string& file_name, TypeRegistry& registry,
                Diagnostics& diagnostics);
 

@@ -99,6 +99,15 @@ struct FlatSpan {
 
 using ConstValue = std::variant<std::int64_t, double, std::string, bool>;
 
+// A named type a file declares but that cannot be used, and why (a DBC message whose
+// signals overlap, for instance). The file still loads: only a profile that names the type
+// fails, with this reason.
+struct UnusableType {
+  std::string name;
+  SourceLocation where;  // the problem in the type file
+  std::string reason;
+};
+
 class TypeRegistry {
  public:
   TypeRegistry();  // registers the primitive types
@@ -115,7 +124,7 @@ class TypeRegistry {
   bool add_lcm_text(std::string_view text, const std::string& file_name, Diagnostics& diagnostics);
   bool add_dbc_file(const std::filesystem::path& file, Diagnostics& diagnostics);
   bool add_dbc_text(std::string_view text, const std::string& file_name, Diagnostics& diagnostics);
-  // Chooses by extension: .idl, .lcm, .dbc; anything else is an error.
+  // Chooses by extension, in any case: .idl, .lcm, .dbc (.DBC); anything else is an error.
   bool add_type_file(const std::filesystem::path& file, Diagnostics& diagnostics);
 
   // Keeps an object alive as long as the registry (format-specific facts about types that
@@ -126,6 +135,11 @@ class TypeRegistry {
   // ("double", "long", "unsigned long long", "int32", "uint8", "float64", ...).
   const Type* find(std::string_view name) const noexcept;
   const Type* primitive(TypeKind kind) const noexcept;
+  // A name find() does not know because its declaration cannot be used (same spellings as
+  // find() for declared names); null otherwise. Type-file parsers record them with
+  // declare_unusable.
+  const UnusableType* find_unusable(std::string_view name) const noexcept;
+  void declare_unusable(UnusableType unusable);
 
   // The user-declared named types (structs, enums, typedefs), in declaration order.
   std::vector<const Type*> declared() const;
@@ -189,6 +203,7 @@ class TypeRegistry {
   std::map<std::string, const Type*, std::less<>> anonymous_;
   // Qualified module names, so a module cannot reuse a type's or constant's name.
   std::map<std::string, SourceLocation, std::less<>> modules_;
+  std::map<std::string, UnusableType, std::less<>> unusable_;
 };
 
 // Renders a flat sample as JSON text (for traces and tools; not for the forwarding path).
