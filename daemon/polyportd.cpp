@@ -100,7 +100,8 @@ std::string histogram_text(const nlohmann::json& h) {
 
 // Where a port lives in its model, from the model's part of the component's description
 // (describe(): lists of endpoints with the port they serve): " topic=...", " channel=..." or
-// " can_id=...".
+// " can_id=..."; for a service port, each operation's request and reply topics or channels
+// with their types (" add: request_channel=calc/add/request [peer.add_request_t] ...").
 std::string native_endpoint(const nlohmann::json& component, const std::string& port) {
   for (const auto& [key, part] : component.items()) {
     if (!part.is_object()) continue;
@@ -108,6 +109,21 @@ std::string native_endpoint(const nlohmann::json& component, const std::string& 
       if (!list.is_array()) continue;
       for (const auto& endpoint : list) {
         if (!endpoint.is_object() || endpoint.value("port", "") != port) continue;
+        if (endpoint.contains("operations")) {
+          std::string text;
+          for (const auto& op : endpoint["operations"]) {
+            text += "  " + op.value("operation", "") + ":";
+            for (const char* way : {"request", "reply"}) {
+              for (const char* name : {"topic", "channel"}) {
+                const std::string address = std::string(way) + "_" + name;
+                if (!op.contains(address)) continue;
+                text += " " + address + "=" + op[address].get<std::string>() + " [" +
+                        op.value(std::string(way) + "_type", "") + "]";
+              }
+            }
+          }
+          return text;
+        }
         for (const char* name : {"topic", "channel", "can_id"}) {
           if (endpoint.contains(name)) return "  " + std::string(name) + "=" + endpoint[name].get<std::string>();
         }
