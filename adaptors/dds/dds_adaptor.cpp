@@ -96,30 +96,14 @@ bool DdsAdaptor::add_service_port(const PortSpec& spec, const TypeRegistry& type
   Service service;
   service.base_topic = port.topic.empty() ? spec.name : port.topic;
   service.qos = port.qos;
-  bool ok = true;
-  for (const OperationSpec& op : spec.operations) {
-    Operation operation;
-    operation.name = op.name;
-    operation.oneway = op.oneway;
-    ok = rpc_layout(spec, service.base_topic, op, false, types, diagnostics, operation.request) && ok;
-    if (!op.oneway) ok = rpc_layout(spec, service.base_topic, op, true, types, diagnostics, operation.reply) && ok;
-    service.operations.push_back(std::move(operation));
-  }
-  if (spec.operations.empty()) {
-    diagnostics.error(spec.where, {},
-                      "service port '" + spec.name + "': a DDS service port lists its operations (each one is a "
-                      "request and a reply topic)");
-    ok = false;
-  }
-  if (!ok) return false;
-  if (spec.direction == PortDirection::provided) {
-    service.provided = &add_port<ProvidedServicePort>(spec.name, spec.service_type, operations_of(spec, types));
-  } else {
-    service.required = &add_port<RequiredServicePort>(spec.name, spec.service_type, operations_of(spec, types),
-                                                      max_calls_in_flight_);
-  }
-  services_.push_back(std::move(service));
-  return true;
+  const bool ok = add_rpc_service(
+      *this, spec, types, max_calls_in_flight_, "a DDS service port", "topic",
+      [&](const OperationSpec& op, bool reply, RpcLayout& layout) {
+        return rpc_layout(spec, service.base_topic, op, reply, types, diagnostics, layout);
+      },
+      diagnostics, service);
+  if (ok) services_.push_back(std::move(service));
+  return ok;
 }
 
 bool DdsAdaptor::rpc_layout(const PortSpec& spec, const std::string& base_topic, const OperationSpec& op, bool reply,
@@ -136,13 +120,11 @@ bool DdsAdaptor::rpc_layout(const PortSpec& spec, const std::string& base_topic,
     return false;
   };
 
-  const Type* wire = struct_of(types.find(wire_name));
-  if (wire == nullptr) return fail("is not a struct");
   const Type* header = nullptr;
-  const Type* payload = payload_name.empty() ? nullptr : types.find(payload_name);
-  const std::string wrong = check_rpc_struct(*wire, header_name, payload_name, payload,
+  const std::string wrong = check_rpc_struct(types.find(wire_name), header_name, payload_name, types,
                                              "config/types/polyport_rpc.idl", layout, header);
   if (!wrong.empty()) return fail(wrong);
+  const Type* wire = layout.type;
   // The header as polyport_rpc.idl declares it: SampleIdentity first, then (replies) status.
   const Type* identity = header->fields.empty() ? nullptr : struct_of(header->fields[0].type);
   const bool identity_ok = identity != nullptr && identity->fields.size() == 2 &&
@@ -161,7 +143,6 @@ bool DdsAdaptor::rpc_layout(const PortSpec& spec, const std::string& base_topic,
   if (reply) layout.status_offset = header_offset + header->fields[1].offset;
   layout.reply = reply;
 
-  layout.type = wire;
   layout.type_name = dds_type_name(wire->name);
   layout.address = base_topic + "/" + op.name + (reply ? "/reply" : "/request");
   layout.codec = codec_for(*wire, spec, diagnostics);

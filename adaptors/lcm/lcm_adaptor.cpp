@@ -13,12 +13,6 @@ namespace {
 constexpr std::string_view kRequestHeader = "polyport::rpc_request_header_t";
 constexpr std::string_view kReplyHeader = "polyport::rpc_reply_header_t";
 
-const Type* struct_of(const Type* type) {
-  if (type == nullptr) return nullptr;
-  const Type& t = type->resolved();
-  return t.kind == TypeKind::structure ? &t : nullptr;
-}
-
 bool is_kind(const Field& field, TypeKind kind) { return field.type->resolved().kind == kind; }
 
 }  // namespace
@@ -98,30 +92,14 @@ bool LcmAdaptor::add_channel(const PortSpec& spec, const TypeRegistry& types, Di
 
 bool LcmAdaptor::add_service_port(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics) {
   RpcService service;
-  bool ok = true;
-  for (const OperationSpec& op : spec.operations) {
-    RpcOperation operation;
-    operation.name = op.name;
-    operation.oneway = op.oneway;
-    ok = rpc_layout(spec, op, false, types, diagnostics, operation.request) && ok;
-    if (!op.oneway) ok = rpc_layout(spec, op, true, types, diagnostics, operation.reply) && ok;
-    service.operations.push_back(std::move(operation));
-  }
-  if (spec.operations.empty()) {
-    diagnostics.error(spec.where, {},
-                      "service port '" + spec.name + "': an LCM service port lists its operations (each one is a "
-                      "request and a reply channel)");
-    ok = false;
-  }
-  if (!ok) return false;
-  if (spec.direction == PortDirection::provided) {
-    service.provided = &add_port<ProvidedServicePort>(spec.name, spec.service_type, operations_of(spec, types));
-  } else {
-    service.required = &add_port<RequiredServicePort>(spec.name, spec.service_type, operations_of(spec, types),
-                                                      settings_->max_calls_in_flight);
-  }
-  services_.push_back(std::move(service));
-  return true;
+  const bool ok = add_rpc_service(
+      *this, spec, types, settings_->max_calls_in_flight, "an LCM service port", "channel",
+      [&](const OperationSpec& op, bool reply, RpcLayout& layout) {
+        return rpc_layout(spec, op, reply, types, diagnostics, layout);
+      },
+      diagnostics, service);
+  if (ok) services_.push_back(std::move(service));
+  return ok;
 }
 
 bool LcmAdaptor::rpc_layout(const PortSpec& spec, const OperationSpec& op, bool reply, const TypeRegistry& types,
@@ -137,13 +115,11 @@ bool LcmAdaptor::rpc_layout(const PortSpec& spec, const OperationSpec& op, bool 
     return false;
   };
 
-  const Type* wire = struct_of(types.find(wire_name));
-  if (wire == nullptr) return fail("is not a struct");
   const Type* header = nullptr;
-  const Type* payload = payload_name.empty() ? nullptr : types.find(payload_name);
-  const std::string wrong = check_rpc_struct(*wire, header_name, payload_name, payload,
+  const std::string wrong = check_rpc_struct(types.find(wire_name), header_name, payload_name, types,
                                              "config/types/polyport_rpc.lcm", layout, header);
   if (!wrong.empty()) return fail(wrong);
+  const Type* wire = layout.type;
   // The header as polyport_rpc.lcm declares it: client id and sequence, then (replies) status.
   const std::size_t fields = reply ? 3 : 2;
   const bool header_ok = header->fields.size() == fields && is_kind(header->fields[0], TypeKind::int64) &&
@@ -167,7 +143,6 @@ bool LcmAdaptor::rpc_layout(const PortSpec& spec, const OperationSpec& op, bool 
                           " " + why + " (name it with " + (reply ? "lcm_reply_channel" : "lcm_request_channel") + ")");
     return false;
   }
-  layout.type = wire;
   layout.type_name = lcm_type_name(wire->name);
   Result<std::unique_ptr<Codec>> codec = make_lcm_codec(*wire);
   if (!codec) return fail(codec.error().message);

@@ -6,6 +6,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "polyport/runtime/model.hpp"
+
 namespace polyport {
 
 namespace {
@@ -75,9 +77,11 @@ nlohmann::json operation_json(const RpcOperation& op, const std::string& key) {
 
 }  // namespace
 
-std::string check_rpc_struct(const Type& wire, std::string_view header_name, const std::string& payload_name,
-                             const Type* payload, std::string_view header_file, RpcLayout& layout,
+std::string check_rpc_struct(const Type* wire_type, std::string_view header_name, const std::string& payload_name,
+                             const TypeRegistry& types, std::string_view header_file, RpcLayout& layout,
                              const Type*& header) {
+  if (wire_type == nullptr || wire_type->resolved().kind != TypeKind::structure) return "is not a struct";
+  const Type& wire = wire_type->resolved();
   const std::string shape = "{ " + std::string(header_name) + " header;" +
                             (payload_name.empty() ? std::string() : " " + payload_name + " <member>;") + " }";
   const std::size_t members = payload_name.empty() ? 1 : 2;
@@ -88,6 +92,7 @@ std::string check_rpc_struct(const Type& wire, std::string_view header_name, con
            shape;
   }
   if (members == 2) {
+    const Type* payload = types.find(payload_name);
     if (payload == nullptr || &wire.fields[1].type->resolved() != &payload->resolved()) {
       return "must be " + shape + " (its second member is a '" + wire.fields[1].type->name + "')";
     }
@@ -98,7 +103,37 @@ std::string check_rpc_struct(const Type& wire, std::string_view header_name, con
     layout.body_offset = wire.fields[1].offset;
     layout.body_size = payload->size;
   }
+  layout.type = &wire;
   return {};
+}
+
+bool add_rpc_service(Component& component, const PortSpec& spec, const TypeRegistry& types,
+                     std::uint32_t max_in_flight, std::string_view kind, std::string_view address,
+                     const RpcLayoutReader& read_layout, Diagnostics& diagnostics, RpcService& service) {
+  bool ok = true;
+  for (const OperationSpec& op : spec.operations) {
+    RpcOperation operation;
+    operation.name = op.name;
+    operation.oneway = op.oneway;
+    ok = read_layout(op, false, operation.request) && ok;
+    if (!op.oneway) ok = read_layout(op, true, operation.reply) && ok;
+    service.operations.push_back(std::move(operation));
+  }
+  if (spec.operations.empty()) {
+    diagnostics.error(spec.where, {},
+                      "service port '" + spec.name + "': " + std::string(kind) +
+                          " lists its operations (each one is a request and a reply " + std::string(address) + ")");
+    ok = false;
+  }
+  if (!ok) return false;
+  if (spec.direction == PortDirection::provided) {
+    service.provided =
+        &component.add_port<ProvidedServicePort>(spec.name, spec.service_type, operations_of(spec, types));
+  } else {
+    service.required = &component.add_port<RequiredServicePort>(spec.name, spec.service_type,
+                                                                 operations_of(spec, types), max_in_flight);
+  }
+  return true;
 }
 
 // ---- ServiceServer: polyport calls a service the foreign application provides --------------

@@ -46,7 +46,10 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include "polyport/base/result.hpp"
+#include "polyport/base/diagnostics.hpp"
 #include "polyport/codecs/codec.hpp"
+#include "polyport/profile/profile.hpp"
+#include "polyport/runtime/component.hpp"
 #include "polyport/runtime/service.hpp"
 #include "polyport/types/types.hpp"
 
@@ -84,14 +87,27 @@ struct RpcService {
 
 inline constexpr std::uint32_t kMaxCallerBytes = 16;
 
-// Checks that `wire` is `{ <header_name> header; <payload_name> <member>; }` (no payload
-// member when `payload_name` is empty; `payload` is its type, null when unknown) with a
-// payload of bounded size, and fills the layout's body; the model checks the header's own
-// fields. `header` is set to the header struct; `header_file` is the file that declares it.
-// Returns what is wrong ("must be { ... }"), empty when nothing is.
-std::string check_rpc_struct(const Type& wire, std::string_view header_name, const std::string& payload_name,
-                             const Type* payload, std::string_view header_file, RpcLayout& layout,
+// Checks that `wire` (a registry type, null when unknown) is the struct
+// `{ <header_name> header; <payload_name> <member>; }` (no payload member when `payload_name`
+// is empty) with a payload of bounded size, and fills the layout's type and body; the model
+// checks the header's own fields. `header` is set to the header struct; `header_file` is the
+// file that declares it. Returns what is wrong ("is not a struct", "must be { ... }"), empty
+// when nothing is.
+std::string check_rpc_struct(const Type* wire, std::string_view header_name, const std::string& payload_name,
+                             const TypeRegistry& types, std::string_view header_file, RpcLayout& layout,
                              const Type*& header);
+
+// Fills one operation's request (reply = false) or reply layout, reporting any problem.
+using RpcLayoutReader = std::function<bool(const OperationSpec& operation, bool reply, RpcLayout& layout)>;
+
+// A foreign service port of `component`: each operation's layouts from `read_layout` (the
+// reply's only when the operation is not oneway), then the provided or required port
+// (`max_in_flight` calls for a required one) into `service`. `kind` and `address` name such
+// a port and what carries a message for the messages ("a DDS service port", "topic"). False
+// when a problem was reported; no port is added then.
+bool add_rpc_service(Component& component, const PortSpec& spec, const TypeRegistry& types,
+                     std::uint32_t max_in_flight, std::string_view kind, std::string_view address,
+                     const RpcLayoutReader& read_layout, Diagnostics& diagnostics, RpcService& service);
 
 // Sends the messages of one direction of one operation. Any thread.
 class RpcSender {
