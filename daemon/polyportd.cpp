@@ -202,6 +202,17 @@ void print_final_stats(const nlohmann::json& stats) {
         }
       }
     }
+    for (const char* model : {"lcm", "dds"}) {
+      if (!c.contains(model)) continue;
+      for (const auto& sv : c[model].value("services", nlohmann::json::array())) {
+        const nlohmann::json counters = sv.value("counters", nlohmann::json::object());
+        spdlog::info("    service port {} (polyport {}): {} calls, {} replies, {} errors ({} timeouts, {} refused), "
+                     "{} malformed, {} unmatched",
+                     sv.value("port", ""), sv.value("polyport", ""), counters.value("calls", 0),
+                     counters.value("replies", 0), counters.value("errors", 0), counters.value("timeouts", 0),
+                     counters.value("refused", 0), counters.value("malformed", 0), counters.value("unmatched", 0));
+      }
+    }
     if (!c.contains("dds")) continue;
     for (const auto& t : c["dds"].value("topics", nlohmann::json::array())) {
       if (t.value("polyport", "") == "reads") {

@@ -105,7 +105,8 @@ bool LcmAdaptor::add_service_port(const PortSpec& spec, const TypeRegistry& type
 bool LcmAdaptor::rpc_layout(const PortSpec& spec, const OperationSpec& op, bool reply, const TypeRegistry& types,
                             Diagnostics& diagnostics, RpcLayout& layout) {
   const OperationSettings* settings = settings_->operation(spec.name, op.name);
-  const std::string wire_name = settings == nullptr ? std::string() : reply ? settings->reply_type : settings->request_type;
+  const std::string wire_name =
+      settings == nullptr ? std::string() : reply ? settings->reply_type : settings->request_type;
   const std::string& payload_name = reply ? op.reply_type : op.request_type;
   const std::string_view header_name = reply ? kReplyHeader : kRequestHeader;
   const std::string what = "operation '" + op.name + "' of port '" + spec.name + "': " +
@@ -135,8 +136,10 @@ bool LcmAdaptor::rpc_layout(const PortSpec& spec, const OperationSpec& op, bool 
   if (reply) layout.status_offset = header_offset + header->fields[2].offset;
   layout.reply = reply;
 
-  const std::string written = settings == nullptr ? std::string() : reply ? settings->reply_channel : settings->request_channel;
-  layout.address = !written.empty() ? written : settings_->channel(spec.name) + "/" + op.name + (reply ? "/reply" : "/request");
+  const std::string written =
+      settings == nullptr ? std::string() : reply ? settings->reply_channel : settings->request_channel;
+  layout.address =
+      !written.empty() ? written : settings_->channel(spec.name) + "/" + op.name + (reply ? "/reply" : "/request");
   if (const std::string why = bad_channel(layout.address); !why.empty()) {
     diagnostics.error(op.where, {},
                       "operation '" + op.name + "' of port '" + spec.name + "': " + (reply ? "reply" : "request") +

@@ -67,7 +67,8 @@ nlohmann::json counters_json(const ServiceCounters& c) {
 }
 
 nlohmann::json operation_json(const RpcOperation& op, const std::string& key) {
-  nlohmann::json o{{"operation", op.name}, {"request_" + key, op.request.address}, {"request_type", op.request.type_name}};
+  nlohmann::json o{
+      {"operation", op.name}, {"request_" + key, op.request.address}, {"request_type", op.request.type_name}};
   if (!op.oneway) {
     o["reply_" + key] = op.reply.address;
     o["reply_type"] = op.reply.type_name;
@@ -240,7 +241,9 @@ Status ServiceServer::submit(PendingCall& call) noexcept {
   slot->sequence.store(sequence, std::memory_order_relaxed);
   std::byte* flat = slot->flat.get();
   std::memset(flat, 0, layout.type->size);
-  if (const std::uint8_t* caller = ends.request->caller()) std::memcpy(flat + layout.caller_offset, caller, layout.caller_size);
+  if (const std::uint8_t* caller = ends.request->caller()) {
+    std::memcpy(flat + layout.caller_offset, caller, layout.caller_size);
+  }
   store_u64(flat + layout.sequence_offset, sequence);
   if (layout.body_size != 0 && call.request_size == layout.body_size) {
     std::memcpy(flat + layout.body_offset, call.request, layout.body_size);

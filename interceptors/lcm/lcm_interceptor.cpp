@@ -24,7 +24,8 @@ class ServiceChannels final : public RpcTransport {
   }
 
   Result<std::unique_ptr<RpcSender>> sender(const RpcLayout& layout) override {
-    return std::unique_ptr<RpcSender>(std::make_unique<ChannelSender>(instance_, layout.address, client_id_));
+    return std::unique_ptr<RpcSender>(
+        std::make_unique<ChannelSender>(instance_, layout.address, client_id_, layout.reply));
   }
 
   Result<std::unique_ptr<RpcReceiver>> receiver(const RpcLayout& layout, RpcReceive receive) override {
@@ -38,8 +39,8 @@ class ServiceChannels final : public RpcTransport {
  private:
   class ChannelSender final : public RpcSender {
    public:
-    ChannelSender(Instance& instance, std::string channel, const std::uint8_t* client_id)
-        : instance_(instance), channel_(std::move(channel)), client_id_(client_id) {}
+    ChannelSender(Instance& instance, std::string channel, const std::uint8_t* client_id, bool reply)
+        : instance_(instance), channel_(std::move(channel)), client_id_(client_id), reply_(reply) {}
     Status send(const std::byte* wire, std::uint32_t size) noexcept override {
       if (instance_.publish(channel_.c_str(), wire, size) != 0) {
         failed_.fetch_add(1, std::memory_order_relaxed);
@@ -50,15 +51,16 @@ class ServiceChannels final : public RpcTransport {
     }
     const std::uint8_t* caller() const noexcept override { return client_id_; }
     void describe(nlohmann::json& operation) const override {
-      // Both directions of one operation show in one entry: name the counts by channel.
-      operation["published"][channel_] = published_.load(std::memory_order_relaxed);
-      operation["failed"][channel_] = failed_.load(std::memory_order_relaxed);
+      const std::string what = reply_ ? "replies" : "requests";
+      operation[what + "_published"] = published_.load(std::memory_order_relaxed);
+      operation[what + "_failed"] = failed_.load(std::memory_order_relaxed);
     }
 
    private:
     Instance& instance_;
     std::string channel_;
     const std::uint8_t* client_id_;
+    bool reply_;
     std::atomic<std::uint64_t> published_{0};
     std::atomic<std::uint64_t> failed_{0};
   };

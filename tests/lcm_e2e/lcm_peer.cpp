@@ -183,7 +183,8 @@ int call_calc(lcm_t* lcm, const std::string& request_channel, const char* reply_
         lcm_publish(lcm, request_channel.c_str(), wire.data(), 20);  // the fingerprint and half the header
       }
       peer_add_request_t_publish(lcm, request_channel.c_str(), &request);
-      const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms / peer_common::kCallAttempts);
+      const auto until =
+          std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms / peer_common::kCallAttempts);
       while (!caller.got && !g_stop && std::chrono::steady_clock::now() < until) {
         pollfd p{fd, POLLIN, 0};
         if (poll(&p, 1, 5) > 0) lcm_handle(lcm);

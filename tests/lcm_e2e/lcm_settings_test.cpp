@@ -40,7 +40,9 @@ class LcmServiceSettings : public ::testing::Test {
     std::vector<std::string> out;
     for (const Diagnostic& item : diagnostics_.all()) {
       std::string text = item.to_string();
-      for (auto at = text.find(prefix); at != std::string::npos; at = text.find(prefix, at)) text.erase(at, prefix.size());
+      for (auto at = text.find(prefix); at != std::string::npos; at = text.find(prefix, at)) {
+        text.erase(at, prefix.size());
+      }
       out.push_back(std::move(text));
     }
     return out;
