@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
 
 #include "../support/multicast_namespace.hpp"
 #include "pose_checks.hpp"
@@ -352,6 +353,29 @@ TEST_F(LcmEndToEnd, AFullTableOfCallsRefusesCalls) {
   EXPECT_GE(counters["refused"].get<int>(), 1) << service->dump(2);
   EXPECT_GE(counters["timeouts"].get<int>(), 1) << service->dump(2);
   EXPECT_EQ(counters["replies"], 0) << service->dump(2);
+}
+
+// `polyportd check` shows each operation's request and reply channels with their types: the
+// defaults (port name / operation / request, reply) and the ones a profile names.
+TEST_F(LcmEndToEnd, CheckShowsEachOperationsChannels) {
+  const auto checked = [&](const std::string& profile) {
+    auto check = peer(POLYPORTD, "check_" + profile, {"check", app(profile).string()});
+    EXPECT_EQ(check->wait(20s), 0) << check->errors();
+    std::ifstream in(dir() / ("check_" + profile + ".out"));
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+  };
+  const std::string server = checked("lcm_server_app.xml");
+  EXPECT_NE(server.find("provided service calc  service=peer::Calc  add: request_channel=calc/add/request "
+                        "[peer.add_request_t] reply_channel=calc/add/reply [peer.add_reply_t]\n"),
+            std::string::npos)
+      << server;
+  const std::string client = checked("lcm_client_app.xml");
+  EXPECT_NE(client.find("required service calc  service=peer::Calc  add: request_channel=CALC_ADD_REQUEST "
+                        "[peer.add_request_t] reply_channel=CALC_ADD_REPLY [peer.add_reply_t]\n"),
+            std::string::npos)
+      << client;
 }
 
 TEST_F(LcmEndToEnd, NoMulticastRouteIsAClearError) {
