@@ -74,20 +74,6 @@ const Json* lcm_service(const Json& stats, const std::string& component) {
   return nullptr;
 }
 
-// The replies a `call` peer printed, each checked: ok and the sum of (seq, 0.5). Adds up the
-// requests they took (a request is sent again when its reply is late).
-int checked_replies(const Child& client, int& requests) {
-  int replies = 0;
-  for (const Json& j : client.lines()) {
-    if (!j.contains("seq")) continue;
-    ++replies;
-    requests += j["attempts"].get<int>();
-    EXPECT_EQ(j["status"], 0) << j.dump();
-    EXPECT_DOUBLE_EQ(j["sum"].get<double>(), j["seq"].get<int>() + 0.5) << j.dump();
-  }
-  return replies;
-}
-
 // The requests a `serve` peer printed, each checked: add(n, 0.5) for a whole n.
 std::vector<Json> checked_requests(const Child& server) {
   std::vector<Json> out;
@@ -100,17 +86,6 @@ std::vector<Json> checked_requests(const Child& server) {
     out.push_back(j);
   }
   return out;
-}
-
-std::vector<double> traced_sums(const fs::path& trace) {
-  std::vector<double> sums;
-  std::ifstream in(trace);
-  std::string text;
-  while (std::getline(in, text)) {
-    const Json j = Json::parse(text, nullptr, false);
-    if (!j.is_discarded() && j.contains("value")) sums.push_back(j["value"]["sum"].get<double>());
-  }
-  return sums;
 }
 
 std::vector<Json> blobs(const Child& subscriber) {
