@@ -100,7 +100,8 @@ std::string histogram_text(const nlohmann::json& h) {
 
 // Where a port lives in its model, from the model's part of the component's description
 // (describe(): lists of endpoints with the port they serve): " topic=...", " channel=..." or
-// " can_id=...".
+// " can_id=..."; for a service port, each operation's request and reply topics or channels
+// with their types (" add: request_channel=calc/add/request [peer.add_request_t] ...").
 std::string native_endpoint(const nlohmann::json& component, const std::string& port) {
   for (const auto& [key, part] : component.items()) {
     if (!part.is_object()) continue;
@@ -108,6 +109,21 @@ std::string native_endpoint(const nlohmann::json& component, const std::string& 
       if (!list.is_array()) continue;
       for (const auto& endpoint : list) {
         if (!endpoint.is_object() || endpoint.value("port", "") != port) continue;
+        if (endpoint.contains("operations")) {
+          std::string text;
+          for (const auto& op : endpoint["operations"]) {
+            text += "  " + op.value("operation", "") + ":";
+            for (const char* way : {"request", "reply"}) {
+              for (const char* name : {"topic", "channel"}) {
+                const std::string address = std::string(way) + "_" + name;
+                if (!op.contains(address)) continue;
+                text += " " + address + "=" + op[address].get<std::string>() + " [" +
+                        op.value(std::string(way) + "_type", "") + "]";
+              }
+            }
+          }
+          return text;
+        }
         for (const char* name : {"topic", "channel", "can_id"}) {
           if (endpoint.contains(name)) return "  " + std::string(name) + "=" + endpoint[name].get<std::string>();
         }
@@ -184,6 +200,17 @@ void print_final_stats(const nlohmann::json& stats) {
           spdlog::info("    LCM channel {}: {} published, {} failed", ch.value("channel", ""), ch.value("published", 0),
                        ch.value("failed", 0));
         }
+      }
+    }
+    for (const char* model : {"lcm", "dds"}) {
+      if (!c.contains(model)) continue;
+      for (const auto& sv : c[model].value("services", nlohmann::json::array())) {
+        const nlohmann::json counters = sv.value("counters", nlohmann::json::object());
+        spdlog::info("    service port {} (polyport {}): {} calls, {} replies, {} errors ({} timeouts, {} refused), "
+                     "{} malformed, {} unmatched",
+                     sv.value("port", ""), sv.value("polyport", ""), counters.value("calls", 0),
+                     counters.value("replies", 0), counters.value("errors", 0), counters.value("timeouts", 0),
+                     counters.value("refused", 0), counters.value("malformed", 0), counters.value("unmatched", 0));
       }
     }
     if (!c.contains("dds")) continue;

@@ -11,24 +11,6 @@ namespace {
 constexpr std::string_view kRequestHeader = "polyport::rpc::RequestHeader";
 constexpr std::string_view kReplyHeader = "polyport::rpc::ReplyHeader";
 
-// Unbounded strings and sequences live in a sample's tail, which a service call does not
-// carry (a call's payload is the type's fixed part).
-bool has_tail(const Type& type) {
-  const Type& t = type.resolved();
-  switch (t.kind) {
-    case TypeKind::string:
-    case TypeKind::sequence:
-      if (t.bound == 0) return true;
-      return t.element != nullptr && has_tail(*t.element);
-    case TypeKind::array:
-      return t.element != nullptr && has_tail(*t.element);
-    case TypeKind::structure:
-      return std::any_of(t.fields.begin(), t.fields.end(), [](const Field& f) { return has_tail(*f.type); });
-    default:
-      return false;
-  }
-}
-
 const Type* struct_of(const Type* type) {
   if (type == nullptr) return nullptr;
   const Type& t = type->resolved();
@@ -114,30 +96,14 @@ bool DdsAdaptor::add_service_port(const PortSpec& spec, const TypeRegistry& type
   Service service;
   service.base_topic = port.topic.empty() ? spec.name : port.topic;
   service.qos = port.qos;
-  bool ok = true;
-  for (const OperationSpec& op : spec.operations) {
-    Operation operation;
-    operation.name = op.name;
-    operation.oneway = op.oneway;
-    ok = rpc_layout(spec, service.base_topic, op, false, types, diagnostics, operation.request) && ok;
-    if (!op.oneway) ok = rpc_layout(spec, service.base_topic, op, true, types, diagnostics, operation.reply) && ok;
-    service.operations.push_back(std::move(operation));
-  }
-  if (spec.operations.empty()) {
-    diagnostics.error(spec.where, {},
-                      "service port '" + spec.name + "': a DDS service port lists its operations (each one is a "
-                      "request and a reply topic)");
-    ok = false;
-  }
-  if (!ok) return false;
-  if (spec.direction == PortDirection::provided) {
-    service.provided = &add_port<ProvidedServicePort>(spec.name, spec.service_type, operations_of(spec, types));
-  } else {
-    service.required = &add_port<RequiredServicePort>(spec.name, spec.service_type, operations_of(spec, types),
-                                                      max_calls_in_flight_);
-  }
-  services_.push_back(std::move(service));
-  return true;
+  const bool ok = add_rpc_service(
+      *this, spec, types, max_calls_in_flight_, "a DDS service port", "topic",
+      [&](const OperationSpec& op, bool reply, RpcLayout& layout) {
+        return rpc_layout(spec, service.base_topic, op, reply, types, diagnostics, layout);
+      },
+      diagnostics, service);
+  if (ok) services_.push_back(std::move(service));
+  return ok;
 }
 
 bool DdsAdaptor::rpc_layout(const PortSpec& spec, const std::string& base_topic, const OperationSpec& op, bool reply,
@@ -154,17 +120,11 @@ bool DdsAdaptor::rpc_layout(const PortSpec& spec, const std::string& base_topic,
     return false;
   };
 
-  const Type* wire = struct_of(types.find(wire_name));
-  if (wire == nullptr) return fail("is not a struct");
-  const std::string shape = "{ " + std::string(header_name) + " header;" +
-                            (payload_name.empty() ? std::string() : " " + payload_name + " <member>;") + " }";
-  const std::size_t members = payload_name.empty() ? 1 : 2;
-  if (wire->fields.size() != members) return fail("must be " + shape);
-  const Type* header = struct_of(wire->fields[0].type);
-  if (header == nullptr || header->name != header_name) {
-    return fail("must start with a " + std::string(header_name) + " (config/types/polyport_rpc.idl); expected " +
-                shape);
-  }
+  const Type* header = nullptr;
+  const std::string wrong = check_rpc_struct(types.find(wire_name), header_name, payload_name, types,
+                                             "config/types/polyport_rpc.idl", layout, header);
+  if (!wrong.empty()) return fail(wrong);
+  const Type* wire = layout.type;
   // The header as polyport_rpc.idl declares it: SampleIdentity first, then (replies) status.
   const Type* identity = header->fields.empty() ? nullptr : struct_of(header->fields[0].type);
   const bool identity_ok = identity != nullptr && identity->fields.size() == 2 &&
@@ -175,27 +135,16 @@ bool DdsAdaptor::rpc_layout(const PortSpec& spec, const std::string& base_topic,
   if (!identity_ok || !status_ok) {
     return fail("has a " + std::string(header_name) + " that is not the one in config/types/polyport_rpc.idl");
   }
-  if (members == 2) {
-    const Type* payload = types.find(payload_name);
-    if (payload == nullptr || &wire->fields[1].type->resolved() != &payload->resolved()) {
-      return fail("must be " + shape + " (its second member is a '" + wire->fields[1].type->name + "')");
-    }
-    if (has_tail(*payload)) {
-      return fail("carries '" + payload_name +
-                  "', which has an unbounded string or sequence; service payloads must be bounded");
-    }
-    layout.body_offset = wire->fields[1].offset;
-    layout.body_size = payload->size;
-  }
   const std::uint32_t header_offset = wire->fields[0].offset;
   const std::uint32_t identity_offset = header_offset + header->fields[0].offset;
-  layout.guid_offset = identity_offset + identity->fields[0].offset;
+  layout.caller_offset = identity_offset + identity->fields[0].offset;
+  layout.caller_size = 16;
   layout.sequence_offset = identity_offset + identity->fields[1].offset;
   if (reply) layout.status_offset = header_offset + header->fields[1].offset;
+  layout.reply = reply;
 
-  layout.type = wire;
   layout.type_name = dds_type_name(wire->name);
-  layout.topic = base_topic + "/" + op.name + (reply ? "/reply" : "/request");
+  layout.address = base_topic + "/" + op.name + (reply ? "/reply" : "/request");
   layout.codec = codec_for(*wire, spec, diagnostics);
   if (layout.codec == nullptr) return false;
   layout.max_size = std::min(layout.codec->max_wire_size(wire->size), kMaxSampleBytes);

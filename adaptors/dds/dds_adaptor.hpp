@@ -8,8 +8,8 @@
 //  - service ports: one per service, with a request and a reply topic per operation
 //    (`<topic>/<operation>/request` and `.../reply`) whose structs put a correlation header
 //    (config/types/polyport_rpc.idl) before the payload. The adaptor checks those structs and
-//    records where the header fields and the payload sit; the interceptor's service bridge
-//    (interceptors/dds/dds_service.hpp) does the calls.
+//    records where the header fields and the payload sit; core's service bridges
+//    (polyport/runtime/service_bridge.hpp) do the calls over the interceptor's topics.
 //
 // Ownership: the adaptor owns its ports and codecs (ports keep raw pointers to them).
 // Directions are the DDS application's view: an `output` port carries what the application
@@ -27,7 +27,7 @@
 #include "polyport/runtime/component.hpp"
 #include "polyport/base/diagnostics.hpp"
 #include "polyport/profile/profile.hpp"
-#include "polyport/runtime/service.hpp"
+#include "polyport/runtime/service_bridge.hpp"
 #include "polyport/types/types.hpp"
 
 namespace polyport::dds {
@@ -44,33 +44,14 @@ class DdsAdaptor final : public Component {
     DataInPort* in = nullptr;    // set for `input` ports (polyport publishes)
   };
 
-  // Where the parts of one request or reply struct sit in its flat sample.
-  struct RpcLayout {
-    const Type* type = nullptr;  // the struct on the topic (dds_request / dds_reply)
-    std::string type_name;       // its DDS type name
-    std::string topic;
-    const Codec* codec = nullptr;  // XCDR1
-    std::uint32_t max_size = 0;    // largest encoded sample
-    std::uint32_t guid_offset = 0;      // SampleIdentity.writer_guid (octet[16])
-    std::uint32_t sequence_offset = 0;  // SampleIdentity.sequence_number (uint64)
-    std::uint32_t status_offset = 0;    // ReplyHeader.status (int32); replies only
-    std::uint32_t body_offset = 0;      // the payload member
-    std::uint32_t body_size = 0;        // 0: no payload
-  };
+  // The request / reply structs of an operation (config/types/polyport_rpc.idl); the
+  // address is the topic, the caller the request writer's GUID (octet[16]).
+  using RpcLayout = polyport::RpcLayout;
+  using Operation = RpcOperation;
 
-  struct Operation {
-    std::string name;
-    bool oneway = false;
-    RpcLayout request;
-    RpcLayout reply;  // type null when oneway
-  };
-
-  struct Service {
+  struct Service : RpcService {
     std::string base_topic;
     DdsQos qos;
-    ProvidedServicePort* provided = nullptr;  // the DDS application serves the calls
-    RequiredServicePort* required = nullptr;  // the DDS application makes the calls
-    std::vector<Operation> operations;        // in the port's operation order
   };
 
   // Samples larger than this (encoded) are not carried.

@@ -4,6 +4,7 @@
 
 #include <system_error>
 
+#include "polyport/profile/call_limits.hpp"
 #include "polyport/profile/profile_text.hpp"
 
 namespace polyport::dds {
@@ -18,8 +19,8 @@ const std::vector<ElementRule> kDdsRules = {
     {"domain", {"domain"}},
     {"config", {"config"}},
     {"qos", {"qos"}},
-    {"max_calls_in_flight", {"max_calls_in_flight"}},
-    {"call_timeout", {"call_timeout_ms"}},
+    max_calls_rule(),
+    call_timeout_rule(),
 };
 const std::vector<ElementRule> kQosRules = {
     {"reliability", {"reliability"}},
@@ -49,23 +50,8 @@ constexpr Spelling<DdsQos::Liveliness> kLivelinesses[] = {
     {"manual_by_participant", DdsQos::Liveliness::manual_by_participant},
     {"manual_by_topic", DdsQos::Liveliness::manual_by_topic},
 };
-// Calls in flight per DDS service port: enough for any sane client, bounded for the tables.
-constexpr std::uint32_t kMaxCallsInFlight = 4096;
 // DDS domain ids: 0..232 (the RTPS port mapping with its default parameters).
 constexpr std::uint32_t kMaxDomain = 232;
-
-// A duration in milliseconds (decimal), as nanoseconds; at most a day.
-std::optional<std::int64_t> duration_ns(const ProfileElement& element, std::string_view what) {
-  const std::string written = element.text();
-  const auto value = text::parse_decimal(written);
-  constexpr double kMaxMs = 86'400'000.0;
-  if (!value || *value < 0.0 || *value > kMaxMs) {
-    element.error_text("bad " + std::string(what) + " " + in_quotes(written) +
-                       ": expected a number of milliseconds from 0 to 86400000");
-    return std::nullopt;
-  }
-  return static_cast<std::int64_t>(*value * 1e6 + 0.5);
-}
 
 // <qos>: each child present overrides that field of `qos` (the component's defaults, or
 // the model's).
@@ -90,16 +76,16 @@ void read_qos(const ProfileElement& element, DdsQos& qos) {
     }
   }
   if (const auto node = children.one("deadline")) {
-    if (const auto ns = duration_ns(node, "deadline_ms")) qos.deadline_ns = *ns > 0 ? ns : std::nullopt;
+    if (const auto ns = milliseconds_text(node, "deadline_ms")) qos.deadline_ns = *ns > 0 ? ns : std::nullopt;
   }
   if (const auto node = children.one("lifespan")) {
-    if (const auto ns = duration_ns(node, "lifespan_ms")) qos.lifespan_ns = *ns > 0 ? ns : std::nullopt;
+    if (const auto ns = milliseconds_text(node, "lifespan_ms")) qos.lifespan_ns = *ns > 0 ? ns : std::nullopt;
   }
   if (const auto node = children.one("liveliness")) {
     if (auto value = enum_text(node, kLivelinesses, "liveliness")) qos.liveliness = *value;
   }
   if (const auto node = children.one("lease")) {
-    if (const auto ns = duration_ns(node, "lease_ms")) qos.lease_ns = *ns > 0 ? ns : std::nullopt;
+    if (const auto ns = milliseconds_text(node, "lease_ms")) qos.lease_ns = *ns > 0 ? ns : std::nullopt;
   }
   if (!children.all("partition").empty()) qos.partitions.clear();  // a port's list replaces the component's
   for (const ProfileElement& node : children.all("partition")) qos.partitions.push_back(node.text());
@@ -138,23 +124,7 @@ class DdsReader final : public ComponentSectionReader {
       }
     }
     if (const auto qos = children.one("qos")) read_qos(qos, settings_->qos);
-    if (const auto cap = children.one("max_calls_in_flight")) {
-      const std::string written = cap.text();
-      const auto value = text::parse_integer<std::uint32_t>(written);
-      if (!value || *value == 0 || *value > kMaxCallsInFlight) {
-        cap.error_text("bad max_calls_in_flight " + in_quotes(written) + ": expected an integer from 1 to " +
-                       std::to_string(kMaxCallsInFlight));
-      } else {
-        settings_->max_calls_in_flight = *value;
-      }
-    }
-    if (const auto timeout = children.one("call_timeout")) {
-      if (const auto ns = duration_ns(timeout, "call_timeout_ms"); ns && *ns > 0) {
-        settings_->call_timeout_ns = *ns;
-      } else if (ns) {
-        timeout.error_text("call_timeout_ms must be greater than 0");
-      }
-    }
+    read_call_limits(children, *settings_);
   }
 
   void read_port(const PortSpec& port, const ProfileChildren& elements) override {

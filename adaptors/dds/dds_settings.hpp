@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "polyport/base/diagnostics.hpp"
+#include "polyport/profile/call_limits.hpp"
 #include "polyport/profile/model_section.hpp"
 #include "polyport/profile/profile.hpp"
 
@@ -59,14 +60,13 @@ struct PortSettings {
   const OperationTypes* operation(std::string_view name) const;
 };
 
-struct DdsSettings final : ModelSettings {
+// CallLimits: per service port, both directions; call_timeout_ns bounds a DDS provider's reply.
+struct DdsSettings final : ModelSettings, CallLimits {
   std::uint32_t domain = 0;
   // The middleware configuration file (absolute): nullopt = the model's shipped default; an
   // empty path = the SDK's own defaults (for Cyclone: CYCLONEDDS_URI from the environment).
   std::optional<std::filesystem::path> config;
   DdsQos qos;                               // <dds><qos>: the default of every port
-  std::uint32_t max_calls_in_flight = 16;   // per service port, both directions
-  std::int64_t call_timeout_ns = 1'000'000'000;  // a DDS provider's reply, at most
   SourceLocation where;                     // the <dds> element; line 0 when there is none
   std::map<std::string, PortSettings, std::less<>> ports;  // by port name
 

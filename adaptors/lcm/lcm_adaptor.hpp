@@ -3,9 +3,17 @@
 // with the codec of the port's .lcm struct. A connection between two LCM ports of one type
 // is a passthrough; to an in-process or DDS port it decodes / encodes on the forwarding path.
 //
+// Service ports: one per service, with a request and a reply channel per operation
+// (`<channel>/<operation>/request` and `.../reply` unless the operation names its own)
+// whose .lcm structs put a correlation header (config/types/polyport_rpc.lcm: client id,
+// sequence number, and a status in replies) before the payload. The adaptor checks those
+// structs and records where the header fields and the payload sit; core's service bridges
+// (polyport/runtime/service_bridge.hpp) do the calls over the interceptor's channels.
+//
 // Directions are the LCM application's view: an `output` port carries what the application
 // publishes on its channel (the interceptor's subscription writes it), an `input` port what
-// polyport publishes for it (the interceptor publishes from the port's sink).
+// polyport publishes for it (the interceptor publishes from the port's sink); a `provided`
+// service port is served by the LCM application, a `required` one calls into the application.
 //
 // Ownership: the adaptor owns its ports and codecs; the interceptor keeps raw pointers to the
 // ports for as long as the proxy lives.
@@ -23,6 +31,7 @@
 #include "polyport/codecs/codec.hpp"
 #include "polyport/profile/profile.hpp"
 #include "polyport/runtime/component.hpp"
+#include "polyport/runtime/service_bridge.hpp"
 #include "polyport/types/types.hpp"
 
 namespace polyport::lcm {
@@ -47,13 +56,20 @@ class LcmAdaptor final : public Component {
                                             Diagnostics& diagnostics);
 
   const std::vector<Channel>& channels() const noexcept { return channels_; }
+  // Service ports: the address of a layout is its channel, the caller an int64 client id.
+  const std::vector<RpcService>& services() const noexcept { return services_; }
   const LcmSettings& settings() const noexcept { return *settings_; }
 
  private:
   bool add_channel(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics);
+  bool add_service_port(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics);
+  // Checks one request/reply struct against the convention and fills `layout`.
+  bool rpc_layout(const PortSpec& spec, const OperationSpec& operation, bool reply, const TypeRegistry& types,
+                  Diagnostics& diagnostics, RpcLayout& layout);
 
   std::shared_ptr<const LcmSettings> settings_;
   std::vector<Channel> channels_;
+  std::vector<RpcService> services_;
   std::vector<std::unique_ptr<Codec>> codecs_;
 };
 

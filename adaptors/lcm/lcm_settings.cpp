@@ -12,6 +12,8 @@ using text::in_quotes;
 const std::vector<ElementRule> kLcmRules = {
     {"url", {"url", "provider"}},
     {"max_message_bytes", {"max_message_bytes"}},
+    max_calls_rule(),
+    call_timeout_rule(),
 };
 // 2^28 bytes: the largest message LCM's UDP multicast provider reassembles.
 constexpr std::uint32_t kMaxMessageBytes = 1U << 28;
@@ -27,6 +29,8 @@ bool known_provider(std::string_view url) {
 
 // A channel is matched by LCM as an anchored regular expression; polyport subscribes to it
 // literally (escaped), so any printable text without blanks is a channel.
+}  // namespace
+
 std::string bad_channel(std::string_view channel) {
   if (channel.empty()) return "empty <channel>";
   if (channel.size() > kMaxChannelLength) {
@@ -38,6 +42,8 @@ std::string bad_channel(std::string_view channel) {
   }
   return {};
 }
+
+namespace {
 
 class LcmReader final : public ComponentSectionReader {
  public:
@@ -63,6 +69,7 @@ class LcmReader final : public ComponentSectionReader {
         settings_->max_message_bytes = *value;
       }
     }
+    read_call_limits(children, *settings_);
   }
 
   void read_port(const PortSpec& port, const ProfileChildren& elements) override {
@@ -76,7 +83,36 @@ class LcmReader final : public ComponentSectionReader {
     settings_->channels.emplace(port.name, written);
   }
 
-  void read_operation(const PortSpec&, const OperationSpec&, const ProfileElement&, std::vector<TypeUse>&) override {}
+  void read_operation(const PortSpec& port, const OperationSpec& operation, const ProfileElement& element,
+                      std::vector<TypeUse>& uses) override {
+    OperationSettings op{element.attribute("lcm_request"), element.attribute("lcm_reply"),
+                         element.attribute("lcm_request_channel"), element.attribute("lcm_reply_channel")};
+    if (op.request_type.empty()) {
+      element.error("missing attribute 'lcm_request': the struct an LCM application publishes on the request "
+                    "channel (a polyport.rpc_request_header_t, then the request)");
+    }
+    if (!operation.oneway && op.reply_type.empty()) {
+      element.error("missing attribute 'lcm_reply': the struct an LCM application publishes on the reply "
+                    "channel (a polyport.rpc_reply_header_t, then the reply)");
+    }
+    for (const std::string_view attribute : {"lcm_reply", "lcm_reply_channel"}) {
+      if (operation.oneway && element.has_attribute(attribute)) {
+        element.error_attribute(attribute, "a oneway operation has no reply");
+      }
+    }
+    for (const std::string_view attribute : {"lcm_request_channel", "lcm_reply_channel"}) {
+      if (!element.has_attribute(attribute)) continue;
+      if (const std::string why = bad_channel(element.attribute(attribute)); !why.empty()) {
+        element.error_attribute(attribute, why);
+      }
+    }
+    for (const std::string_view attribute : {"lcm_request", "lcm_reply"}) {
+      const std::string& name = attribute == "lcm_request" ? op.request_type : op.reply_type;
+      if (name.empty()) continue;
+      uses.push_back({name, element.attribute_location(attribute), element.attribute_path(attribute)});
+    }
+    settings_->operations[port.name].emplace(operation.name, std::move(op));  // a repeated name: the first counts
+  }
 
   std::shared_ptr<const ModelSettings> finish() override { return settings_; }
 
@@ -91,6 +127,13 @@ std::string LcmSettings::channel(std::string_view port) const {
   return it != channels.end() ? it->second : std::string(port);
 }
 
+const OperationSettings* LcmSettings::operation(std::string_view port, std::string_view name) const {
+  const auto it = operations.find(port);
+  if (it == operations.end()) return nullptr;
+  const auto op = it->second.find(name);
+  return op == it->second.end() ? nullptr : &op->second;
+}
+
 std::shared_ptr<const LcmSettings> lcm_settings(const ComponentProfile& profile) {
   if (auto settings = std::dynamic_pointer_cast<const LcmSettings>(profile.model_settings)) return settings;
   static const auto kDefaults = std::make_shared<const LcmSettings>();
@@ -98,7 +141,8 @@ std::shared_ptr<const LcmSettings> lcm_settings(const ComponentProfile& profile)
 }
 
 const ModelVocabulary& LcmSection::vocabulary() const noexcept {
-  static const ModelVocabulary kVocabulary{{"lcm"}, {"channel"}, {}};
+  static const ModelVocabulary kVocabulary{
+      {"lcm"}, {"channel"}, {"lcm_request", "lcm_reply", "lcm_request_channel", "lcm_reply_channel"}};
   return kVocabulary;
 }
 

@@ -1,7 +1,7 @@
 // What the DDS models share: a vendor-neutral view of one DDS domain and its raw
 // (serialized) endpoints. interceptors/cyclonedds and interceptors/fastdds each implement
-// Domain over their SDK; the DDS interceptor (dds_interceptor.hpp) and the service bridge
-// (dds_service.hpp) are written once against it.
+// Domain over their SDK; the DDS interceptor (dds_interceptor.hpp), which also opens the
+// topics of core's service bridges, is written once against it.
 //
 // Every sample is its CDR bytes, 4-byte encapsulation header included, on a topic whose type
 // name is what idlc / fastddsgen applications register ("demo::Pose"), so generated-code

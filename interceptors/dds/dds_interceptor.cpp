@@ -6,6 +6,69 @@
 
 namespace polyport::dds {
 
+namespace {
+
+// A service's request and reply topics, with the service's QoS. What the bridge's endpoints
+// show in describe: the request writer its matched servers, the reply reader the servers'
+// reply writers, the request reader its matched clients.
+class ServiceTopics final : public RpcTransport {
+ public:
+  ServiceTopics(Domain& domain, const DdsAdaptor::Service& service) : domain_(domain), service_(service) {}
+
+  Result<std::unique_ptr<RpcSender>> sender(const RpcLayout& layout) override {
+    auto writer = domain_.create_writer(spec_of(layout));
+    if (!writer) return make_error(writer.error().message);
+    return std::unique_ptr<RpcSender>(std::make_unique<TopicSender>(std::move(writer).value(), layout.reply));
+  }
+
+  Result<std::unique_ptr<RpcReceiver>> receiver(const RpcLayout& layout, RpcReceive receive) override {
+    auto reader = domain_.create_reader(
+        spec_of(layout), [receive = std::move(receive)](const std::byte* cdr, std::uint32_t size, MonoTime) {
+          receive(cdr, size);
+        });
+    if (!reader) return make_error(reader.error().message);
+    return std::unique_ptr<RpcReceiver>(std::make_unique<TopicReceiver>(std::move(reader).value(), layout.reply));
+  }
+
+ private:
+  class TopicSender final : public RpcSender {
+   public:
+    TopicSender(std::unique_ptr<Writer> writer, bool reply)
+        : writer_(std::move(writer)), guid_(writer_->guid()), reply_(reply) {}
+    Status send(const std::byte* wire, std::uint32_t size) noexcept override { return writer_->write(wire, size); }
+    const std::uint8_t* caller() const noexcept override { return guid_.data(); }
+    void describe(nlohmann::json& operation) const override {
+      if (!reply_) operation["matched_servers"] = writer_->matched_readers();
+    }
+
+   private:
+    std::unique_ptr<Writer> writer_;
+    Guid guid_;
+    bool reply_;
+  };
+
+  class TopicReceiver final : public RpcReceiver {
+   public:
+    TopicReceiver(std::unique_ptr<Reader> reader, bool reply) : reader_(std::move(reader)), reply_(reply) {}
+    void describe(nlohmann::json& operation) const override {
+      operation[reply_ ? "matched_reply_writers" : "matched_clients"] = reader_->matched_writers();
+    }
+
+   private:
+    std::unique_ptr<Reader> reader_;
+    bool reply_;
+  };
+
+  EndpointSpec spec_of(const RpcLayout& layout) const {
+    return EndpointSpec{layout.address, layout.type_name, service_.qos, layout.max_size};
+  }
+
+  Domain& domain_;
+  const DdsAdaptor::Service& service_;
+};
+
+}  // namespace
+
 Status DdsInterceptor::TopicSink::on_sample(const std::byte* data, const SampleMeta& meta) noexcept {
   Writer* w = writer.load(std::memory_order_acquire);
   if (w == nullptr) return Status::not_active;
@@ -23,11 +86,12 @@ DdsInterceptor::DdsInterceptor(DdsAdaptor& adaptor, std::shared_ptr<Domain> doma
     }
   }
   for (const DdsAdaptor::Service& service : adaptor_.services()) {
+    service_topics_.push_back(std::make_unique<ServiceTopics>(*domain_, service));
     if (service.provided != nullptr) {
-      servers_.push_back(
-          std::make_unique<ServiceServer>(service, adaptor_.max_calls_in_flight(), adaptor_.call_timeout_ns()));
+      servers_.push_back(std::make_unique<ServiceServer>(service, adaptor_.max_calls_in_flight(),
+                                                         adaptor_.call_timeout_ns(), "topic"));
     } else {
-      clients_.push_back(std::make_unique<ServiceClient>(service, adaptor_.max_calls_in_flight()));
+      clients_.push_back(std::make_unique<ServiceClient>(service, adaptor_.max_calls_in_flight(), "topic"));
     }
   }
 }
@@ -63,11 +127,13 @@ Result<void> DdsInterceptor::start() {
       sinks_[i]->writer.store(writers_[i].get(), std::memory_order_release);
     }
   }
-  for (auto& server : servers_) {
-    if (auto started = server->start(*domain_); !started) return fail("service", started.error().message);
-  }
-  for (auto& client : clients_) {
-    if (auto started = client->start(*domain_); !started) return fail("service", started.error().message);
+  std::size_t server = 0;
+  std::size_t client = 0;
+  for (std::size_t i = 0; i < adaptor_.services().size(); ++i) {
+    RpcTransport& service_topics = *service_topics_[i];
+    auto started = adaptor_.services()[i].provided != nullptr ? servers_[server++]->start(service_topics)
+                                                              : clients_[client++]->start(service_topics);
+    if (!started) return fail("service", started.error().message);
   }
   active_ = true;
   return {};

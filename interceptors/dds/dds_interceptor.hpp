@@ -1,6 +1,7 @@
 // The native side of a DDS proxy, for either vendor (the Domain hides which): a raw reader
 // per `output` topic and a raw writer per `input` topic of one component, and a service
-// bridge per service port (dds_service.hpp), all on the model's participant for the
+// bridge per service port (core's polyport/runtime/service_bridge.hpp, over the request and
+// reply topics this interceptor opens for it), all on the model's participant for the
 // component's domain.
 //
 // Threads and buffers (forwarding path):
@@ -23,8 +24,8 @@
 
 #include "dds_adaptor.hpp"
 #include "dds_endpoint.hpp"
-#include "dds_service.hpp"
 #include "polyport/runtime/model.hpp"
+#include "polyport/runtime/service_bridge.hpp"
 
 namespace polyport::dds {
 
@@ -62,8 +63,9 @@ class DdsInterceptor final : public Interceptor {
     std::uint64_t refused = 0;
   };
   std::vector<ReaderTotals> closed_;
-  std::vector<std::unique_ptr<ServiceServer>> servers_;  // provided service ports
-  std::vector<std::unique_ptr<ServiceClient>> clients_;  // required service ports
+  std::vector<std::unique_ptr<RpcTransport>> service_topics_;  // per service port, in order
+  std::vector<std::unique_ptr<ServiceServer>> servers_;       // provided service ports
+  std::vector<std::unique_ptr<ServiceClient>> clients_;       // required service ports
   bool active_ = false;
 };
 

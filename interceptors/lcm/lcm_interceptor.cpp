@@ -1,10 +1,98 @@
 #include "lcm_interceptor.hpp"
 
+#include <cstring>
+#include <random>
+
 #include <nlohmann/json.hpp>
 
 #include "polyport/runtime/component_api.hpp"
 
 namespace polyport::lcm {
+
+namespace {
+
+// Service channels on the instance. The caller of every request a server bridge publishes is
+// this interceptor's client id: random, so that two polyport processes (or a restarted one)
+// on the same channels tell their replies apart.
+class ServiceChannels final : public RpcTransport {
+ public:
+  explicit ServiceChannels(Instance& instance) : instance_(instance) {
+    std::random_device random;
+    std::int64_t id = 0;
+    while (id == 0) id = static_cast<std::int64_t>((std::uint64_t{random()} << 32) | random());
+    std::memcpy(client_id_, &id, sizeof id);
+  }
+
+  Result<std::unique_ptr<RpcSender>> sender(const RpcLayout& layout) override {
+    return std::unique_ptr<RpcSender>(
+        std::make_unique<ChannelSender>(instance_, layout.address, client_id_, layout.reply));
+  }
+
+  Result<std::unique_ptr<RpcReceiver>> receiver(const RpcLayout& layout, RpcReceive receive) override {
+    auto handler = std::make_unique<ChannelReceiver>(instance_, std::move(receive), layout.reply);
+    auto subscription = instance_.subscribe(layout.address, *handler);
+    if (!subscription) return make_error(subscription.error().message);
+    handler->subscription = subscription.value();
+    return std::unique_ptr<RpcReceiver>(std::move(handler));
+  }
+
+ private:
+  class ChannelSender final : public RpcSender {
+   public:
+    ChannelSender(Instance& instance, std::string channel, const std::uint8_t* client_id, bool reply)
+        : instance_(instance), channel_(std::move(channel)), client_id_(client_id), reply_(reply) {}
+    Status send(const std::byte* wire, std::uint32_t size) noexcept override {
+      if (instance_.publish(channel_.c_str(), wire, size) != 0) {
+        failed_.fetch_add(1, std::memory_order_relaxed);
+        return Status::error;
+      }
+      published_.fetch_add(1, std::memory_order_relaxed);
+      return Status::ok;
+    }
+    const std::uint8_t* caller() const noexcept override { return client_id_; }
+    void describe(nlohmann::json& operation) const override {
+      const std::string what = reply_ ? "replies" : "requests";
+      operation[what + "_published"] = published_.load(std::memory_order_relaxed);
+      operation[what + "_failed"] = failed_.load(std::memory_order_relaxed);
+    }
+
+   private:
+    Instance& instance_;
+    std::string channel_;
+    const std::uint8_t* client_id_;
+    bool reply_;
+    std::atomic<std::uint64_t> published_{0};
+    std::atomic<std::uint64_t> failed_{0};
+  };
+
+  class ChannelReceiver final : public RpcReceiver, public MessageHandler {
+   public:
+    ChannelReceiver(Instance& instance, RpcReceive receive, bool reply)
+        : instance_(instance), receive_(std::move(receive)), reply_(reply) {}
+    ~ChannelReceiver() override {
+      if (subscription != nullptr) instance_.unsubscribe(subscription);  // waits for a handler in progress
+    }
+    void on_message(const void* data, std::uint32_t size) noexcept override {
+      received_.fetch_add(1, std::memory_order_relaxed);
+      receive_(static_cast<const std::byte*>(data), size);
+    }
+    void describe(nlohmann::json& operation) const override {
+      operation[reply_ ? "replies_received" : "requests_received"] = received_.load(std::memory_order_relaxed);
+    }
+    lcm_subscription_t* subscription = nullptr;
+
+   private:
+    Instance& instance_;
+    RpcReceive receive_;
+    bool reply_;
+    std::atomic<std::uint64_t> received_{0};
+  };
+
+  Instance& instance_;
+  std::uint8_t client_id_[8] = {};
+};
+
+}  // namespace
 
 void LcmInterceptor::ChannelReader::on_message(const void* data, std::uint32_t size) noexcept {
   if (!active.load(std::memory_order_acquire)) return;
@@ -49,6 +137,16 @@ LcmInterceptor::LcmInterceptor(LcmAdaptor& adaptor, std::shared_ptr<Instance> in
       channel.in->set_sink(writers_.back().get());  // before wiring: the connection is push mode
     }
   }
+  service_channels_ = std::make_unique<ServiceChannels>(*instance_);
+  const LcmSettings& settings = adaptor_.settings();
+  for (const RpcService& service : adaptor_.services()) {
+    if (service.provided != nullptr) {
+      servers_.push_back(std::make_unique<ServiceServer>(service, settings.max_calls_in_flight,
+                                                         settings.call_timeout_ns, "channel"));
+    } else {
+      clients_.push_back(std::make_unique<ServiceClient>(service, settings.max_calls_in_flight, "channel"));
+    }
+  }
 }
 
 LcmInterceptor::~LcmInterceptor() { stop(); }
@@ -72,11 +170,25 @@ Result<void> LcmInterceptor::start() {
       writers_[i]->active.store(true, std::memory_order_release);
     }
   }
+  for (auto& server : servers_) {
+    if (auto started = server->start(*service_channels_); !started) {
+      stop();
+      return make_error(adaptor_.name() + ": " + started.error().message);
+    }
+  }
+  for (auto& client : clients_) {
+    if (auto started = client->start(*service_channels_); !started) {
+      stop();
+      return make_error(adaptor_.name() + ": " + started.error().message);
+    }
+  }
   active_ = true;
   return {};
 }
 
 void LcmInterceptor::stop() noexcept {
+  for (auto& client : clients_) client->stop();
+  for (auto& server : servers_) server->stop();
   for (auto& reader : readers_) {
     if (!reader) continue;
     reader->active.store(false, std::memory_order_release);
@@ -117,7 +229,18 @@ void LcmInterceptor::describe(nlohmann::json& out) const {
     }
     channels.push_back(std::move(c));
   }
-  out["lcm"] = {{"url", instance_->url()}, {"channels", std::move(channels)}};
+  nlohmann::json services = nlohmann::json::array();
+  for (const auto& server : servers_) {
+    nlohmann::json s;
+    server->describe(s);
+    services.push_back(std::move(s));
+  }
+  for (const auto& client : clients_) {
+    nlohmann::json s;
+    client->describe(s);
+    services.push_back(std::move(s));
+  }
+  out["lcm"] = {{"url", instance_->url()}, {"channels", std::move(channels)}, {"services", std::move(services)}};
 }
 
 }  // namespace polyport::lcm

@@ -1,5 +1,7 @@
 // The native side of an LCM proxy: a subscription per `output` channel and a publisher per
-// `input` channel of one component, on the model's instance for the component's URL.
+// `input` channel of one component, and a service bridge per service port (core's
+// polyport/runtime/service_bridge.hpp over the request and reply channels this interceptor
+// subscribes and publishes for it), on the model's instance for the component's URL.
 //
 // Threads and buffers (forwarding path):
 //  - application -> polyport: a subscription's handler runs on the instance's receive
@@ -7,6 +9,9 @@
 //    is counted and dropped) and calls DataOutPort::write. No allocation, no lock of ours.
 //  - polyport -> application: an `input` port's sink runs on the upstream writer's thread
 //    and hands the bytes to lcm_publish (LCM copies them into its datagrams).
+//  - services: requests and replies go the same ways (a subscription's handler on the
+//    receive thread, lcm_publish on the caller's or the completing provider's thread), into
+//    and out of the bridges' preallocated slots.
 // start/stop/describe run on the control thread. Handlers and sinks live as long as the
 // interceptor; stop detaches them (atomics), so a late call finds nothing to forward to.
 #pragma once
@@ -20,6 +25,7 @@
 #include "lcm_instance.hpp"
 #include "polyport/runtime/model.hpp"
 #include "polyport/runtime/port.hpp"
+#include "polyport/runtime/service_bridge.hpp"
 
 namespace polyport::lcm {
 
@@ -71,6 +77,9 @@ class LcmInterceptor final : public Interceptor {
   std::shared_ptr<Instance> instance_;
   std::vector<std::unique_ptr<ChannelReader>> readers_;  // per channel; null for input channels
   std::vector<std::unique_ptr<ChannelWriter>> writers_;  // per channel; null for output channels
+  std::unique_ptr<RpcTransport> service_channels_;       // the services' channels
+  std::vector<std::unique_ptr<ServiceServer>> servers_;  // provided service ports
+  std::vector<std::unique_ptr<ServiceClient>> clients_;  // required service ports
   bool active_ = false;
 };
 

@@ -1,6 +1,7 @@
-// The DDS service bridges (interceptors/dds/dds_service.hpp) on an in-memory domain: the
-// correlation header, replies kept apart by writer GUID and sequence number, the call
-// timeout, the cap on calls in flight, errors carried back, malformed samples counted.
+// The DDS service bridges (core's polyport/runtime/service_bridge.hpp over the DDS
+// interceptor's topics) on an in-memory domain: the correlation header, replies kept apart by
+// writer GUID and sequence number, the call timeout, the cap on calls in flight, errors
+// carried back, malformed samples counted.
 // A "DDS application" here is a reader and a writer on the request/reply topics, encoding
 // with polyport's CDR codec; tests/dds runs the same against idlc / fastddsgen programs.
 #include <gtest/gtest.h>

@@ -72,17 +72,4 @@ inline constexpr const char* kForever = "0";
 // What tests/plugins PoseRelay adds to every id it relays.
 inline constexpr int kRelayOffset = 100000;
 
-// The in-process PeerCaller calls `add` every 20 ms with n = 1, 2, ... and publishes each sum
-// it gets; traced to a file.
-inline std::vector<double> traced_sums(const fs::path& trace) {
-  std::vector<double> sums;
-  std::ifstream in(trace);
-  std::string text;
-  while (std::getline(in, text)) {
-    const Json j = Json::parse(text, nullptr, false);
-    if (!j.is_discarded() && j.contains("value")) sums.push_back(j["value"]["sum"].get<double>());
-  }
-  return sums;
-}
-
 }  // namespace polyport::test

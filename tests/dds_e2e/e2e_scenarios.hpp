@@ -117,16 +117,8 @@ inline void client_scenario(DdsEndToEnd& t, const std::string& app, int domain_a
   auto polyportd = t.daemon(t.profiles(app, domain_a, domain_b));
   auto client = t.peer(program, "client", {"call", text(domain), "calc", "5", "5000"});
   ASSERT_EQ(client->wait(90s), 0) << client->errors();
-  int replies = 0;
   int requests = 0;  // the client resends a request whose reply it missed (kCallAttempts)
-  for (const Json& j : client->lines()) {
-    if (!j.contains("seq")) continue;
-    ++replies;
-    requests += j["attempts"].get<int>();
-    EXPECT_EQ(j["status"], 0) << j.dump();
-    EXPECT_DOUBLE_EQ(j["sum"].get<double>(), j["seq"].get<int>() + 0.5) << j.dump();
-  }
-  EXPECT_EQ(replies, 5);
+  EXPECT_EQ(checked_replies(*client, requests), 5);
   const Json stats = t.stop(*polyportd);
   ASSERT_EQ(stats["services"].size(), 1u);
   // Every request reached polyport (the client waits for its writer to match) and was served.

@@ -2,7 +2,10 @@
 // (pose_t -> pose_t) and on a converting one (pose_t decoded, mapped onto pose2_t, encoded):
 // tests/data/lcm_alloc/alloc_app.xml, in a network namespace of the test's own with a
 // multicast route on loopback. The test publishes with lcm-gen code and its own lcm_t and
-// takes both outputs the same way.
+// takes both outputs the same way. Likewise per service call, both ways
+// (tests/data/lcm_alloc/services_app.xml): an in-process call to an LCM server, counted on the
+// calling thread and on the thread that takes the reply, and an LCM client's call to an
+// in-process provider that runs it on the thread that took the request.
 //
 // This binary interposes malloc (tests/support/malloc_counter.hpp) and two LCM entry points:
 // lcm_subscribe, whose handlers it wraps while the engine starts, so a thread counts from
@@ -17,6 +20,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <lcm/lcm.h>
@@ -26,6 +30,8 @@
 #include "../support/malloc_counter.hpp"
 #include "../support/multicast_namespace.hpp"
 #include "lcm_model.hpp"
+#include "peer_add_reply_t.h"
+#include "peer_add_request_t.h"
 #include "peer_pose2_t.h"
 #include "peer_pose_t.h"
 
@@ -157,6 +163,152 @@ TEST_F(LcmAlloc, ForwardingAMessageAllocatesNothingInPolyport) {
   EXPECT_EQ(stats["connections"][0]["dropped"], 0) << stats.dump(2);
   EXPECT_EQ(stats["connections"][1]["dropped"], 0) << stats.dump(2);
   engine.stop();
+}
+
+// An LCM server of calc on its own lcm_t and thread (its handler is not polyport's: it
+// subscribed while subscriptions were not wrapped): replies sum = a + b.
+class CalcServer {
+ public:
+  CalcServer() : lcm_(lcm_create(nullptr)) {
+    if (lcm_ == nullptr) return;
+    peer_add_request_t_subscribe(lcm_, "ALLOC_SERVER/add/request", on_request, this);
+    fd_ = lcm_get_fileno(lcm_);
+    if (fd_ >= 0) thread_ = std::thread([this] { run(); });
+  }
+  ~CalcServer() {
+    stop_ = true;
+    if (thread_.joinable()) thread_.join();
+    if (lcm_ != nullptr) lcm_destroy(lcm_);
+  }
+  bool ok() const { return thread_.joinable(); }
+
+ private:
+  static void on_request(const lcm_recv_buf_t*, const char*, const peer_add_request_t* request, void* user) {
+    auto* self = static_cast<CalcServer*>(user);
+    peer_add_reply_t reply{};
+    reply.header.client_id = request->header.client_id;
+    reply.header.sequence = request->header.sequence;
+    reply.reply.sum = request->request.a + request->request.b;
+    peer_add_reply_t_publish(self->lcm_, "ALLOC_SERVER/add/reply", &reply);
+  }
+  void run() {
+    while (!stop_) {
+      pollfd p{fd_, POLLIN, 0};
+      if (poll(&p, 1, 10) > 0) lcm_handle(lcm_);
+    }
+  }
+  lcm_t* lcm_;
+  int fd_ = -1;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+struct ClientReplies {
+  std::int64_t sequence = 0;
+  bool got = false;
+  double sum = 0;
+};
+
+void on_client_reply(const lcm_recv_buf_t*, const char*, const peer_add_reply_t* reply, void* user) {
+  auto* replies = static_cast<ClientReplies*>(user);
+  if (reply->header.sequence != replies->sequence || reply->header.status != 0) return;
+  replies->got = true;
+  replies->sum = reply->reply.sum;
+}
+
+struct Pair {
+  double a;
+  double b;
+};
+
+TEST_F(LcmAlloc, ServiceCallsAllocateNothingInPolyport) {
+  ASSERT_TRUE(build("services_app.xml")) << problems();
+  // The test's own in-process ends: a caller of the LCM server, a provider for the LCM client
+  // that adds on the thread that took the request.
+  auto* server_port = dynamic_cast<ProvidedServicePort*>(engine.find_port("server.calc"));
+  auto* client_port = dynamic_cast<RequiredServicePort*>(engine.find_port("client.calc"));
+  ASSERT_TRUE(server_port != nullptr && client_port != nullptr);
+  Component test("test", "inproc");
+  RequiredServicePort caller(test, "calc", "peer::Calc", server_port->operations(), 4);
+  ASSERT_TRUE(caller.connect(*server_port));
+  ProvidedServicePort adder(test, "calc", "peer::Calc", client_port->operations());
+  adder.set_handler(
+      0,
+      [](const std::byte* request, std::uint32_t, std::byte* reply, std::uint32_t& reply_size) {
+        Pair pair;
+        std::memcpy(&pair, request, sizeof pair);
+        const double sum = pair.a + pair.b;
+        std::memcpy(reply, &sum, sizeof sum);
+        reply_size = sizeof sum;
+        return Status::ok;
+      },
+      ProvidedServicePort::Dispatch::caller_thread);
+  adder.set_accepting(true);
+  ASSERT_TRUE(client_port->connect(adder));
+
+  std::vector<std::string> warnings;
+  g_wrap_subscriptions = true;
+  ASSERT_TRUE(engine.start(warnings)) << problems();
+  g_wrap_subscriptions = false;
+  CalcServer server;
+  ASSERT_TRUE(server.ok()) << "the test's LCM server did not start";
+
+  lcm_t* lcm = lcm_create(nullptr);
+  ASSERT_NE(lcm, nullptr);
+  ClientReplies replies;
+  peer_add_reply_t_subscribe(lcm, "ALLOC_CLIENT/add/reply", on_client_reply, &replies);
+  const int fd = lcm_get_fileno(lcm);
+  ASSERT_GE(fd, 0);
+
+  // In-process -> LCM server: the calling thread counts from the call to its return.
+  auto call_server = [&](int count) {
+    for (int i = 0; i < count; ++i) {
+      const Pair pair{static_cast<double>(i), 0.5};
+      double sum = 0;
+      Status status;
+      {
+        Scope polyport(true);
+        status = caller.query("add", &pair, sizeof pair, &sum, sizeof sum, Nanos{2'000'000'000});
+      }
+      ASSERT_EQ(status, Status::ok) << "call " << i;
+      ASSERT_EQ(sum, i + 0.5) << "call " << i;
+    }
+  };
+  // LCM client -> in-process: one request at a time, its reply waited for.
+  auto call_client = [&](int count) {
+    for (int i = 0; i < count; ++i) {
+      peer_add_request_t request{};
+      request.header.client_id = 7;
+      request.header.sequence = ++replies.sequence;
+      request.request.a = i;
+      request.request.b = 0.5;
+      replies.got = false;
+      ASSERT_EQ(peer_add_request_t_publish(lcm, "ALLOC_CLIENT/add/request", &request), 0);
+      for (int spins = 0; !replies.got && spins < 200; ++spins) {
+        pollfd p{fd, POLLIN, 0};
+        if (poll(&p, 1, 10) > 0) lcm_handle(lcm);
+      }
+      ASSERT_TRUE(replies.got) << "request " << i << " got no reply";
+      ASSERT_EQ(replies.sum, i + 0.5) << "request " << i;
+    }
+  };
+  call_server(50);  // warm-up: first-use allocations
+  call_client(50);
+
+  constexpr int kCalls = 300;
+  const std::uint64_t handled_before = g_handler_calls.load();
+  const std::uint64_t polyport_before = g_polyport_allocations.load();
+  call_server(kCalls);
+  call_client(kCalls);
+  const std::uint64_t polyport = g_polyport_allocations.load() - polyport_before;
+  // Every reply to polyport's requests and every request to polyport went through a counted handler.
+  EXPECT_EQ(g_handler_calls.load() - handled_before, static_cast<std::uint64_t>(2 * kCalls));
+  EXPECT_EQ(polyport, 0u) << "polyport allocated on a service call path";
+  std::printf("allocations per service call in polyport: %.3f\n", static_cast<double>(polyport) / (2 * kCalls));
+  lcm_destroy(lcm);
+
+  engine.stop();
+  EXPECT_EQ(caller.counters().ok.load(), static_cast<std::uint64_t>(50 + kCalls));
 }
 
 }  // namespace

@@ -2,14 +2,20 @@
 // LCM and DDS applications built with idlc and fastddsgen (tests/dds_peers): every
 // field checked where it arrives, wrong and cut-short messages counted and dropped, a message
 // of 200 KB (fragmented on the wire) carried intact, a restarted publisher picked up, and a
-// host without a multicast route told which route to add.
+// host without a multicast route told which route to add. Services both ways: an LCM client
+// calling the in-process PeerAdder (its malformed requests counted and dropped), the
+// in-process PeerCaller calling an LCM server (a silent one ending each call with a timeout,
+// a full table of calls in flight refusing calls).
 //
 // Each case runs in a network namespace of its own (the test process unshares it; ctest runs
 // each case as a process of its own) with loopback up and a route for LCM's group on it, so
 // the fixture adds the route it needs and the route goes with the namespace. That needs root
 // (CAP_SYS_ADMIN); without it the cases fail and say so.
 
+#include <cmath>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 
 #include "../support/multicast_namespace.hpp"
 #include "pose_checks.hpp"
@@ -36,9 +42,14 @@ class LcmEndToEnd : public DaemonTest {
                            {"@SOURCE_CHANNEL@", "POSE_IN"},
                            {"@SINK_CHANNEL@", "POSE_OUT"},
                            {"@A@", "17"},
+                           {"@CAP@", std::to_string(cap_)},
+                           {"@TIMEOUT@", std::to_string(timeout_ms_)},
                            {"@SRC@", POLYPORT_SOURCE_DIR}},
                           name);
   }
+  // The service profiles' cap on calls in flight and call timeout.
+  int cap_ = 16;
+  int timeout_ms_ = 150;
   std::unique_ptr<Child> lcm_peer(const std::string& tag, std::vector<std::string> args) {
     return peer(LCM_PEER, tag, std::move(args));
   }
@@ -54,6 +65,29 @@ const Json* lcm_channel(const Json& stats, const std::string& component, const s
   }
   ADD_FAILURE() << "no LCM channel " << component << "." << port << " in " << stats.dump(2);
   return nullptr;
+}
+
+// The statistics' entry of an LCM service port of a component.
+const Json* lcm_service(const Json& stats, const std::string& component) {
+  for (const Json& c : stats["components"]) {
+    if (c["name"] == component && c.contains("lcm") && !c["lcm"]["services"].empty()) return &c["lcm"]["services"][0];
+  }
+  ADD_FAILURE() << "no LCM service of " << component << " in " << stats.dump(2);
+  return nullptr;
+}
+
+// The requests a `serve` peer printed, each checked: add(n, 0.5) for a whole n.
+std::vector<Json> checked_requests(const Child& server) {
+  std::vector<Json> out;
+  for (const Json& j : server.lines()) {
+    if (!j.contains("request")) continue;
+    const double a = j["a"].get<double>();
+    EXPECT_EQ(a, std::floor(a)) << j.dump();
+    EXPECT_EQ(j["b"].get<double>(), 0.5) << j.dump();
+    EXPECT_NE(j["client"].get<long long>(), 0) << j.dump();
+    out.push_back(j);
+  }
+  return out;
 }
 
 std::vector<Json> blobs(const Child& subscriber) {
@@ -198,6 +232,127 @@ TEST_F(LcmEndToEnd, TheShippedLcmWheelchairProfileDrivesTheChair) {
   ASSERT_NE(link, nullptr);
   EXPECT_EQ((*link)["conversion"], "lcm -> flat -> map");
   EXPECT_EQ((*link)["dropped"], 0);
+}
+
+// An LCM client (lcm-gen C) calls add(i, 0.5) five times on the in-process PeerAdder, on the
+// channels its profile names.
+TEST_F(LcmEndToEnd, AnLcmClientCallsAnInProcessProvider) {
+  auto daemon = this->daemon(app("lcm_client_app.xml"));
+  auto client = lcm_peer("client", {"call", kUrl, "CALC_ADD_REQUEST", "CALC_ADD_REPLY", "5", "5000"});
+  ASSERT_EQ(client->wait(60s), 0) << client->errors() << daemon->errors();
+  int requests = 0;
+  EXPECT_EQ(checked_replies(*client, requests), 5);
+  const Json stats = stop(*daemon);
+  const Json* service = lcm_service(stats, "client");
+  ASSERT_NE(service, nullptr);
+  EXPECT_EQ((*service)["polyport"], "serves");
+  EXPECT_EQ((*service)["operations"][0]["request_channel"], "CALC_ADD_REQUEST");
+  EXPECT_EQ((*service)["operations"][0]["reply_channel"], "CALC_ADD_REPLY");
+  EXPECT_EQ((*service)["operations"][0]["request_type"], "peer.add_request_t");
+  // Every request that reached polyport was answered (the client's first ones may go out
+  // before polyport has subscribed: LCM has no matching to wait for).
+  const int calls = (*service)["counters"]["calls"].get<int>();
+  EXPECT_GE(calls, 5) << service->dump(2);
+  EXPECT_LE(calls, requests) << service->dump(2);
+  EXPECT_EQ((*service)["counters"]["replies"], calls) << service->dump(2);
+  EXPECT_EQ((*service)["counters"]["errors"], 0) << service->dump(2);
+  EXPECT_EQ((*service)["counters"]["malformed"], 0) << service->dump(2);
+}
+
+// Before each request the client sends an other_t and a request cut short on the request
+// channel: each is counted as malformed and dropped, and every call still gets its sum.
+TEST_F(LcmEndToEnd, MalformedRequestsAreCountedAndDropped) {
+  auto daemon = this->daemon(app("lcm_client_app.xml"));
+  auto client = lcm_peer("client", {"call", kUrl, "CALC_ADD_REQUEST", "CALC_ADD_REPLY", "3", "5000", "bad"});
+  ASSERT_EQ(client->wait(60s), 0) << client->errors() << daemon->errors();
+  int requests = 0;
+  EXPECT_EQ(checked_replies(*client, requests), 3);
+  const Json stats = stop(*daemon);
+  const Json* service = lcm_service(stats, "client");
+  ASSERT_NE(service, nullptr);
+  const Json& counters = (*service)["counters"];
+  // Two bad messages before each request; all of them once polyport has subscribed.
+  const int calls = counters["calls"].get<int>();
+  EXPECT_GE(calls, 3) << service->dump(2);
+  EXPECT_LE(calls, requests) << service->dump(2);
+  EXPECT_GE(counters["malformed"].get<int>(), 2 * (calls - 1)) << service->dump(2);
+  EXPECT_LE(counters["malformed"].get<int>(), 2 * requests) << service->dump(2);
+  EXPECT_EQ(counters["replies"], calls) << service->dump(2);
+  EXPECT_EQ(counters["errors"], 0) << service->dump(2);
+}
+
+// The in-process PeerCaller calls an LCM server (lcm-gen C) on the default channels: a
+// silent one first (every call ends with the 150 ms call timeout, no sum is published), then
+// an answering one, whose sums arrive.
+TEST_F(LcmEndToEnd, AnInProcessCallerCallsAnLcmServerAndASilentOneTimesOut) {
+  const fs::path trace = dir() / "sums.jsonl";
+  auto daemon = this->daemon(app("lcm_server_app.xml"), {"--trace", "caller.sums", "--trace-file", trace.string()});
+  auto silent = lcm_peer("silent", {"serve", kUrl, "calc/add/request", "calc/add/reply", "3", "silent"});
+  ASSERT_EQ(silent->wait(60s), 0) << silent->errors() << daemon->errors();
+  EXPECT_EQ(checked_requests(*silent).size(), 3u);
+  EXPECT_TRUE(traced_sums(trace).empty()) << "a sum without an answering server";
+  auto server = lcm_peer("server", {"serve", kUrl, "calc/add/request", "calc/add/reply", "20"});
+  ASSERT_EQ(server->wait(60s), 0) << server->errors() << daemon->errors();
+  ASSERT_TRUE(eventually([&] { return traced_sums(trace).size() >= 5; }, 20s)) << "no sums traced";
+  const auto requests = checked_requests(*server);
+  const Json stats = stop(*daemon);
+  const auto sums = traced_sums(trace);
+  for (double sum : sums) EXPECT_EQ(sum - std::floor(sum), 0.5) << sum;  // n + 0.5 for some n
+  const Json* service = lcm_service(stats, "server");
+  ASSERT_NE(service, nullptr);
+  EXPECT_EQ((*service)["polyport"], "calls");
+  EXPECT_EQ((*service)["operations"][0]["request_channel"], "calc/add/request");
+  EXPECT_EQ((*service)["operations"][0]["reply_channel"], "calc/add/reply");
+  const Json& counters = (*service)["counters"];
+  EXPECT_GE(counters["timeouts"].get<int>(), 3) << service->dump(2);  // at least the silent server's
+  // Every sum published came from a reply (one answered after the caller gave up is not).
+  EXPECT_GE(counters["replies"].get<std::size_t>(), sums.size()) << service->dump(2);
+  EXPECT_LE(counters["replies"].get<std::size_t>(), requests.size()) << service->dump(2);
+  EXPECT_EQ(counters["malformed"], 0) << service->dump(2);
+}
+
+// Two calls in flight at most and a 5 s call timeout, against a silent server: PeerCaller
+// gives up on each call after 500 ms, but the bridge keeps its slot until the call times out,
+// so from the third call on calls are refused (too_many_calls) until a slot frees; the third
+// request reaches the server only then.
+TEST_F(LcmEndToEnd, AFullTableOfCallsRefusesCalls) {
+  cap_ = 2;
+  timeout_ms_ = 5000;
+  auto silent = lcm_peer("silent", {"serve", kUrl, "calc/add/request", "calc/add/reply", "0", "silent"});
+  auto daemon = this->daemon(app("lcm_server_app.xml"));
+  ASSERT_TRUE(eventually([&] { return checked_requests(*silent).size() >= 3; }, 60s))
+      << daemon->errors() << silent->errors();
+  const Json stats = stop(*daemon);
+  const Json* service = lcm_service(stats, "server");
+  ASSERT_NE(service, nullptr);
+  EXPECT_EQ((*service)["max_calls_in_flight"], 2);
+  const Json& counters = (*service)["counters"];
+  EXPECT_GE(counters["refused"].get<int>(), 1) << service->dump(2);
+  EXPECT_GE(counters["timeouts"].get<int>(), 1) << service->dump(2);
+  EXPECT_EQ(counters["replies"], 0) << service->dump(2);
+}
+
+// `polyportd check` shows each operation's request and reply channels with their types: the
+// defaults (port name / operation / request, reply) and the ones a profile names.
+TEST_F(LcmEndToEnd, CheckShowsEachOperationsChannels) {
+  const auto checked = [&](const std::string& profile) {
+    auto check = peer(POLYPORTD, "check_" + profile, {"check", app(profile).string()});
+    EXPECT_EQ(check->wait(20s), 0) << check->errors();
+    std::ifstream in(dir() / ("check_" + profile + ".out"));
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+  };
+  const std::string server = checked("lcm_server_app.xml");
+  EXPECT_NE(server.find("provided service calc  service=peer::Calc  add: request_channel=calc/add/request "
+                        "[peer.add_request_t] reply_channel=calc/add/reply [peer.add_reply_t]\n"),
+            std::string::npos)
+      << server;
+  const std::string client = checked("lcm_client_app.xml");
+  EXPECT_NE(client.find("required service calc  service=peer::Calc  add: request_channel=CALC_ADD_REQUEST "
+                        "[peer.add_request_t] reply_channel=CALC_ADD_REPLY [peer.add_reply_t]\n"),
+            std::string::npos)
+      << client;
 }
 
 TEST_F(LcmEndToEnd, NoMulticastRouteIsAClearError) {

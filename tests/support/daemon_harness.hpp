@@ -182,4 +182,33 @@ class DaemonTest : public ::testing::Test {
   fs::path dir_;
 };
 
+// The sums the in-process PeerCaller (tests/plugins) publishes, traced to a file by
+// `polyportd run --trace caller.sums --trace-file FILE`: it calls `add` every 20 ms with n =
+// 1, 2, ... and publishes each sum it gets (DDS and LCM service tests).
+inline std::vector<double> traced_sums(const fs::path& trace) {
+  std::vector<double> sums;
+  std::ifstream in(trace);
+  std::string text;
+  while (std::getline(in, text)) {
+    const Json j = Json::parse(text, nullptr, false);
+    if (!j.is_discarded() && j.contains("value")) sums.push_back(j["value"]["sum"].get<double>());
+  }
+  return sums;
+}
+
+// The replies a `call` peer (tests/dds_peers, tests/lcm_e2e/lcm_peer) printed, each checked:
+// status ok and the sum of (seq, 0.5). Adds up in `requests` the requests they took (a peer
+// sends a request again when its reply is late).
+inline int checked_replies(const Child& client, int& requests) {
+  int replies = 0;
+  for (const Json& j : client.lines()) {
+    if (!j.contains("seq")) continue;
+    ++replies;
+    requests += j["attempts"].get<int>();
+    EXPECT_EQ(j["status"], 0) << j.dump();
+    EXPECT_DOUBLE_EQ(j["sum"].get<double>(), j["seq"].get<int>() + 0.5) << j.dump();
+  }
+  return replies;
+}
+
 }  // namespace polyport::test

@@ -1,4 +1,4 @@
-#include "dds_service.hpp"
+#include "polyport/runtime/service_bridge.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -6,11 +6,11 @@
 
 #include <nlohmann/json.hpp>
 
-namespace polyport::dds {
+#include "polyport/runtime/model.hpp"
+
+namespace polyport {
 
 namespace {
-
-constexpr std::uint32_t kIdentityBytes = 24;  // writer GUID (16) + sequence number (8)
 
 std::uint64_t load_u64(const std::byte* p) noexcept {
   std::uint64_t value = 0;
@@ -29,11 +29,29 @@ Status status_from_wire(std::int32_t code) noexcept {
   return status;
 }
 
-void buffers_for(CallSlot& slot, const DdsAdaptor::Service& service, bool reply) {
+// Unbounded strings and sequences live in a sample's tail, which a service call does not
+// carry (a call's payload is the type's fixed part).
+bool has_tail(const Type& type) {
+  const Type& t = type.resolved();
+  switch (t.kind) {
+    case TypeKind::string:
+    case TypeKind::sequence:
+      if (t.bound == 0) return true;
+      return t.element != nullptr && has_tail(*t.element);
+    case TypeKind::array:
+      return t.element != nullptr && has_tail(*t.element);
+    case TypeKind::structure:
+      return std::any_of(t.fields.begin(), t.fields.end(), [](const Field& f) { return has_tail(*f.type); });
+    default:
+      return false;
+  }
+}
+
+void buffers_for(CallSlot& slot, const RpcService& service, bool reply) {
   std::uint32_t flat = 1;
   std::uint32_t wire = 1;
-  for (const DdsAdaptor::Operation& op : service.operations) {
-    const DdsAdaptor::RpcLayout& layout = reply ? op.reply : op.request;
+  for (const RpcOperation& op : service.operations) {
+    const RpcLayout& layout = reply ? op.reply : op.request;
     if (layout.type == nullptr) continue;
     flat = std::max(flat, layout.type->size);
     wire = std::max(wire, layout.max_size);
@@ -48,26 +66,85 @@ nlohmann::json counters_json(const ServiceCounters& c) {
           {"unmatched", c.unmatched.load()}};
 }
 
-nlohmann::json operation_json(const DdsAdaptor::Operation& op) {
-  nlohmann::json o{{"operation", op.name}, {"request_topic", op.request.topic}, {"request_type", op.request.type_name}};
+nlohmann::json operation_json(const RpcOperation& op, const std::string& key) {
+  nlohmann::json o{
+      {"operation", op.name}, {"request_" + key, op.request.address}, {"request_type", op.request.type_name}};
   if (!op.oneway) {
-    o["reply_topic"] = op.reply.topic;
+    o["reply_" + key] = op.reply.address;
     o["reply_type"] = op.reply.type_name;
   }
   return o;
 }
 
-EndpointSpec spec_of(const DdsAdaptor::Service& service, const DdsAdaptor::RpcLayout& layout) {
-  return EndpointSpec{layout.topic, layout.type_name, service.qos, layout.max_size};
-}
-
 }  // namespace
 
-// ---- ServiceServer: polyport calls a service the DDS application provides ------------------
+std::string check_rpc_struct(const Type* wire_type, std::string_view header_name, const std::string& payload_name,
+                             const TypeRegistry& types, std::string_view header_file, RpcLayout& layout,
+                             const Type*& header) {
+  if (wire_type == nullptr || wire_type->resolved().kind != TypeKind::structure) return "is not a struct";
+  const Type& wire = wire_type->resolved();
+  const std::string shape = "{ " + std::string(header_name) + " header;" +
+                            (payload_name.empty() ? std::string() : " " + payload_name + " <member>;") + " }";
+  const std::size_t members = payload_name.empty() ? 1 : 2;
+  if (wire.fields.size() != members) return "must be " + shape;
+  header = &wire.fields[0].type->resolved();
+  if (header->kind != TypeKind::structure || header->name != header_name) {
+    return "must start with a " + std::string(header_name) + " (" + std::string(header_file) + "); expected " +
+           shape;
+  }
+  if (members == 2) {
+    const Type* payload = types.find(payload_name);
+    if (payload == nullptr || &wire.fields[1].type->resolved() != &payload->resolved()) {
+      return "must be " + shape + " (its second member is a '" + wire.fields[1].type->name + "')";
+    }
+    if (has_tail(*payload)) {
+      return "carries '" + payload_name +
+             "', which has an unbounded string or sequence; service payloads must be bounded";
+    }
+    layout.body_offset = wire.fields[1].offset;
+    layout.body_size = payload->size;
+  }
+  layout.type = &wire;
+  return {};
+}
 
-ServiceServer::ServiceServer(const DdsAdaptor::Service& service, std::uint32_t max_in_flight,
-                             std::int64_t timeout_ns)
-    : service_(service), timeout_ns_(timeout_ns), slots_(std::max<std::uint32_t>(max_in_flight, 1)) {
+bool add_rpc_service(Component& component, const PortSpec& spec, const TypeRegistry& types,
+                     std::uint32_t max_in_flight, std::string_view kind, std::string_view address,
+                     const RpcLayoutReader& read_layout, Diagnostics& diagnostics, RpcService& service) {
+  bool ok = true;
+  for (const OperationSpec& op : spec.operations) {
+    RpcOperation operation;
+    operation.name = op.name;
+    operation.oneway = op.oneway;
+    ok = read_layout(op, false, operation.request) && ok;
+    if (!op.oneway) ok = read_layout(op, true, operation.reply) && ok;
+    service.operations.push_back(std::move(operation));
+  }
+  if (spec.operations.empty()) {
+    diagnostics.error(spec.where, {},
+                      "service port '" + spec.name + "': " + std::string(kind) +
+                          " lists its operations (each one is a request and a reply " + std::string(address) + ")");
+    ok = false;
+  }
+  if (!ok) return false;
+  if (spec.direction == PortDirection::provided) {
+    service.provided =
+        &component.add_port<ProvidedServicePort>(spec.name, spec.service_type, operations_of(spec, types));
+  } else {
+    service.required = &component.add_port<RequiredServicePort>(spec.name, spec.service_type,
+                                                                 operations_of(spec, types), max_in_flight);
+  }
+  return true;
+}
+
+// ---- ServiceServer: polyport calls a service the foreign application provides --------------
+
+ServiceServer::ServiceServer(const RpcService& service, std::uint32_t max_in_flight, std::int64_t timeout_ns,
+                             std::string address_key)
+    : service_(service),
+      timeout_ns_(timeout_ns),
+      address_key_(std::move(address_key)),
+      slots_(std::max<std::uint32_t>(max_in_flight, 1)) {
   for (CallSlot& slot : slots_) buffers_for(slot, service_, false);
   service_.provided->set_target(this);
 }
@@ -76,26 +153,23 @@ ServiceServer::ServiceServer(const DdsAdaptor::Service& service, std::uint32_t m
 // adaptor owning the port (Proxy), and nothing dispatches once the engine has stopped.
 ServiceServer::~ServiceServer() { stop(); }
 
-Result<void> ServiceServer::start(Domain& domain) {
+Result<void> ServiceServer::start(RpcTransport& transport) {
   if (active_.load()) return {};
   endpoints_.clear();
   endpoints_.resize(service_.operations.size());
   for (std::size_t i = 0; i < service_.operations.size(); ++i) {
-    const DdsAdaptor::Operation& op = service_.operations[i];
+    const RpcOperation& op = service_.operations[i];
     Endpoints& ends = endpoints_[i];
-    auto writer = domain.create_writer(spec_of(service_, op.request));
-    if (!writer) return make_error(op.request.topic + ": " + writer.error().message);
-    ends.request = std::move(writer).value();
-    ends.guid = ends.request->guid();
+    auto sender = transport.sender(op.request);
+    if (!sender) return make_error(op.request.address + ": " + sender.error().message);
+    ends.request = std::move(sender).value();
     if (op.oneway) continue;
     ends.reply_flat = std::make_unique<std::byte[]>(op.reply.type->size);
     const auto index = static_cast<std::uint16_t>(i);
-    auto reader = domain.create_reader(spec_of(service_, op.reply),
-                                       [this, index](const std::byte* cdr, std::uint32_t size, MonoTime) {
-                                         on_reply(index, cdr, size);
-                                       });
-    if (!reader) return make_error(op.reply.topic + ": " + reader.error().message);
-    ends.reply = std::move(reader).value();
+    auto receiver = transport.receiver(
+        op.reply, [this, index](const std::byte* wire, std::uint32_t size) { on_reply(index, wire, size); });
+    if (!receiver) return make_error(op.reply.address + ": " + receiver.error().message);
+    ends.reply = std::move(receiver).value();
   }
   {
     std::lock_guard<std::mutex> lock(timer_mutex_);
@@ -158,8 +232,8 @@ Status ServiceServer::submit(PendingCall& call) noexcept {
     return status;
   }
 
-  const DdsAdaptor::Operation& op = service_.operations[call.operation];
-  const DdsAdaptor::RpcLayout& layout = op.request;
+  const RpcOperation& op = service_.operations[call.operation];
+  const RpcLayout& layout = op.request;
   Endpoints& ends = endpoints_[call.operation];
   // The sequence number names the slot (sequence % slots), so a reply finds it at once.
   slot->generation += 1;
@@ -167,7 +241,9 @@ Status ServiceServer::submit(PendingCall& call) noexcept {
   slot->sequence.store(sequence, std::memory_order_relaxed);
   std::byte* flat = slot->flat.get();
   std::memset(flat, 0, layout.type->size);
-  std::memcpy(flat + layout.guid_offset, ends.guid.data(), ends.guid.size());
+  if (const std::uint8_t* caller = ends.request->caller()) {
+    std::memcpy(flat + layout.caller_offset, caller, layout.caller_size);
+  }
   store_u64(flat + layout.sequence_offset, sequence);
   if (layout.body_size != 0 && call.request_size == layout.body_size) {
     std::memcpy(flat + layout.body_offset, call.request, layout.body_size);
@@ -184,9 +260,9 @@ Status ServiceServer::submit(PendingCall& call) noexcept {
   slot->operation.store(call.operation, std::memory_order_relaxed);
   slot->call = &call;
   slot->deadline_ns = (mono_now() + Nanos{timeout_ns_}).ns;
-  // Pending before the write: a server in this process may reply inside it.
+  // Pending before the send: a server in this process may reply inside it.
   slot->state.store(op.oneway ? CallSlot::completing : CallSlot::pending, std::memory_order_release);
-  status = ends.request->write(slot->wire.get(), encoded.size);
+  status = ends.request->send(slot->wire.get(), encoded.size);
   if (op.oneway) {
     finish(*slot, status);
   } else if (status != Status::ok) {
@@ -210,16 +286,17 @@ void ServiceServer::finish(CallSlot& slot, Status status) noexcept {
   if (call != nullptr) call->complete(status);
 }
 
-void ServiceServer::on_reply(std::uint16_t operation, const std::byte* cdr, std::uint32_t size) noexcept {
-  const DdsAdaptor::RpcLayout& layout = service_.operations[operation].reply;
+void ServiceServer::on_reply(std::uint16_t operation, const std::byte* wire, std::uint32_t size) noexcept {
+  const RpcLayout& layout = service_.operations[operation].reply;
   Endpoints& ends = endpoints_[operation];
   std::byte* flat = ends.reply_flat.get();
-  if (!layout.codec->decode(cdr, size, flat, layout.type->size).ok()) {
+  if (!layout.codec->decode(wire, size, flat, layout.type->size).ok()) {
     counters_.malformed.fetch_add(1, std::memory_order_relaxed);
     return;
   }
-  // Replies reach every reader of the topic: keep those to requests of our writer.
-  if (std::memcmp(flat + layout.guid_offset, ends.guid.data(), ends.guid.size()) != 0) {
+  // Replies reach every receiver of the reply topic or channel: keep those to our requests.
+  const std::uint8_t* caller = ends.request->caller();
+  if (caller != nullptr && std::memcmp(flat + layout.caller_offset, caller, layout.caller_size) != 0) {
     counters_.unmatched.fetch_add(1, std::memory_order_relaxed);
     return;
   }
@@ -273,10 +350,10 @@ void ServiceServer::expire() noexcept {
 void ServiceServer::describe(nlohmann::json& out) const {
   nlohmann::json operations = nlohmann::json::array();
   for (std::size_t i = 0; i < service_.operations.size(); ++i) {
-    nlohmann::json o = operation_json(service_.operations[i]);
+    nlohmann::json o = operation_json(service_.operations[i], address_key_);
     if (i < endpoints_.size()) {
-      if (endpoints_[i].request) o["matched_servers"] = endpoints_[i].request->matched_readers();
-      if (endpoints_[i].reply) o["matched_reply_writers"] = endpoints_[i].reply->matched_writers();
+      if (endpoints_[i].request) endpoints_[i].request->describe(o);
+      if (endpoints_[i].reply) endpoints_[i].reply->describe(o);
     }
     operations.push_back(std::move(o));
   }
@@ -288,29 +365,28 @@ void ServiceServer::describe(nlohmann::json& out) const {
          {"counters", counters_json(counters_)}};
 }
 
-// ---- ServiceClient: the DDS application calls a service polyport forwards in-process ------
+// ---- ServiceClient: the foreign application calls a service polyport forwards in-process ---
 
-ServiceClient::ServiceClient(const DdsAdaptor::Service& service, std::uint32_t max_in_flight)
-    : service_(service), slots_(std::max<std::uint32_t>(max_in_flight, 1)) {
+ServiceClient::ServiceClient(const RpcService& service, std::uint32_t max_in_flight, std::string address_key)
+    : service_(service), address_key_(std::move(address_key)), slots_(std::max<std::uint32_t>(max_in_flight, 1)) {
   for (CallSlot& slot : slots_) buffers_for(slot, service_, true);
 }
 
 ServiceClient::~ServiceClient() { stop(); }
 
-Result<void> ServiceClient::start(Domain& domain) {
+Result<void> ServiceClient::start(RpcTransport& transport) {
   if (endpoints_.empty()) {
-    // Writers and buffers once: a completion of a call from before a stop may still use them.
-    for (std::size_t i = 0; i < service_.operations.size(); ++i) {
-      const DdsAdaptor::Operation& op = service_.operations[i];
+    // Senders and buffers once: a completion of a call from before a stop may still use them.
+    for (const RpcOperation& op : service_.operations) {
       auto ends = std::make_unique<Endpoints>();
       ends->request_flat = std::make_unique<std::byte[]>(op.request.type->size);
       if (!op.oneway) {
-        auto writer = domain.create_writer(spec_of(service_, op.reply));
-        if (!writer) {
+        auto sender = transport.sender(op.reply);
+        if (!sender) {
           endpoints_.clear();
-          return make_error(op.reply.topic + ": " + writer.error().message);
+          return make_error(op.reply.address + ": " + sender.error().message);
         }
-        ends->reply_owner = std::move(writer).value();
+        ends->reply_owner = std::move(sender).value();
         ends->refusal_flat = std::make_unique<std::byte[]>(op.reply.type->size);
         ends->refusal_wire = std::make_unique<std::byte[]>(op.reply.max_size);
       }
@@ -318,18 +394,18 @@ Result<void> ServiceClient::start(Domain& domain) {
     }
   }
   for (auto& ends : endpoints_) ends->reply.store(ends->reply_owner.get(), std::memory_order_release);
-  // Readers last: a request may arrive as soon as one exists.
+  // Receivers last: a request may arrive as soon as one exists.
   for (std::size_t i = 0; i < service_.operations.size(); ++i) {
     const auto index = static_cast<std::uint16_t>(i);
-    auto reader = domain.create_reader(spec_of(service_, service_.operations[i].request),
-                                       [this, index](const std::byte* cdr, std::uint32_t size, MonoTime) {
-                                         on_request(index, cdr, size);
-                                       });
-    if (!reader) {
+    auto receiver = transport.receiver(service_.operations[i].request, [this, index](const std::byte* wire,
+                                                                                     std::uint32_t size) {
+      on_request(index, wire, size);
+    });
+    if (!receiver) {
       stop();
-      return make_error(service_.operations[i].request.topic + ": " + reader.error().message);
+      return make_error(service_.operations[i].request.address + ": " + receiver.error().message);
     }
-    endpoints_[i]->request = std::move(reader).value();
+    endpoints_[i]->request = std::move(receiver).value();
   }
   return {};
 }
@@ -340,11 +416,11 @@ void ServiceClient::stop() noexcept {
   for (auto& ends : endpoints_) ends->reply.store(nullptr, std::memory_order_release);
 }
 
-void ServiceClient::on_request(std::uint16_t operation, const std::byte* cdr, std::uint32_t size) noexcept {
-  const DdsAdaptor::Operation& op = service_.operations[operation];
+void ServiceClient::on_request(std::uint16_t operation, const std::byte* wire, std::uint32_t size) noexcept {
+  const RpcOperation& op = service_.operations[operation];
   Endpoints& ends = *endpoints_[operation];
   std::byte* flat = ends.request_flat.get();
-  if (!op.request.codec->decode(cdr, size, flat, op.request.type->size).ok()) {
+  if (!op.request.codec->decode(wire, size, flat, op.request.type->size).ok()) {
     counters_.malformed.fetch_add(1, std::memory_order_relaxed);
     return;
   }
@@ -355,9 +431,9 @@ void ServiceClient::on_request(std::uint16_t operation, const std::byte* cdr, st
     if (status != Status::ok) counters_.errors.fetch_add(1, std::memory_order_relaxed);
     return;
   }
-  std::uint8_t identity[kIdentityBytes];
-  std::memcpy(identity, flat + op.request.guid_offset, 16);
-  std::memcpy(identity + 16, flat + op.request.sequence_offset, 8);
+  std::uint8_t caller[kMaxCallerBytes] = {};
+  std::memcpy(caller, flat + op.request.caller_offset, op.request.caller_size);
+  const std::uint64_t sequence = load_u64(flat + op.request.sequence_offset);
 
   std::size_t index = 0;
   for (; index < slots_.size(); ++index) {
@@ -366,43 +442,45 @@ void ServiceClient::on_request(std::uint16_t operation, const std::byte* cdr, st
   }
   if (index == slots_.size()) {
     counters_.refused.fetch_add(1, std::memory_order_relaxed);
-    reply(operation, identity, Status::too_many_calls, nullptr, 0, ends.refusal_flat.get(), ends.refusal_wire.get());
+    reply(operation, caller, sequence, Status::too_many_calls, nullptr, 0, ends.refusal_flat.get(),
+          ends.refusal_wire.get());
     return;
   }
   CallSlot& slot = slots_[index];
   slot.operation.store(operation, std::memory_order_relaxed);
-  std::memcpy(slot.identity, identity, kIdentityBytes);
+  std::memcpy(slot.caller, caller, kMaxCallerBytes);
+  slot.caller_sequence = sequence;
   const Status status = service_.required->request_async(op.name, body, op.request.body_size, *this, index);
   if (status != Status::ok) {
     // Not started (not connected, no slot in the port's pool...): the observer is not called.
     slot.state.store(CallSlot::free, std::memory_order_release);
-    reply(operation, identity, status, nullptr, 0, ends.refusal_flat.get(), ends.refusal_wire.get());
+    reply(operation, caller, sequence, status, nullptr, 0, ends.refusal_flat.get(), ends.refusal_wire.get());
   }
 }
 
 void ServiceClient::on_call_complete(const PendingCall& call, Status status, std::uint64_t tag) noexcept {
   CallSlot& slot = slots_[tag];
   const std::uint32_t body_size = status == Status::ok ? call.reply_size : 0;
-  reply(slot.operation.load(std::memory_order_relaxed), slot.identity, status, call.reply, body_size,
-        slot.flat.get(), slot.wire.get());
+  reply(slot.operation.load(std::memory_order_relaxed), slot.caller, slot.caller_sequence, status, call.reply,
+        body_size, slot.flat.get(), slot.wire.get());
   slot.state.store(CallSlot::free, std::memory_order_release);
 }
 
-void ServiceClient::reply(std::uint16_t operation, const std::uint8_t* identity, Status status,
+void ServiceClient::reply(std::uint16_t operation, const std::uint8_t* caller, std::uint64_t sequence, Status status,
                           const std::byte* body, std::uint32_t body_size, std::byte* flat, std::byte* wire) noexcept {
-  const DdsAdaptor::RpcLayout& layout = service_.operations[operation].reply;
+  const RpcLayout& layout = service_.operations[operation].reply;
   if (status == Status::ok && body_size != layout.body_size) status = Status::bad_size;
   std::memset(flat, 0, layout.type->size);
-  std::memcpy(flat + layout.guid_offset, identity, 16);
-  std::memcpy(flat + layout.sequence_offset, identity + 16, 8);
+  std::memcpy(flat + layout.caller_offset, caller, layout.caller_size);
+  store_u64(flat + layout.sequence_offset, sequence);
   const auto code = static_cast<std::int32_t>(status);
   std::memcpy(flat + layout.status_offset, &code, sizeof code);
   if (status == Status::ok && body_size != 0) std::memcpy(flat + layout.body_offset, body, body_size);
   (status == Status::ok ? counters_.replies : counters_.errors).fetch_add(1, std::memory_order_relaxed);
-  Writer* writer = endpoints_[operation]->reply.load(std::memory_order_acquire);
-  if (writer == nullptr) return;  // stopped: the caller's DDS client times out by itself
+  RpcSender* sender = endpoints_[operation]->reply.load(std::memory_order_acquire);
+  if (sender == nullptr) return;  // stopped: the foreign caller times out by itself
   const CodecResult encoded = layout.codec->encode(flat, layout.type->size, wire, layout.max_size);
-  if (!encoded.ok() || writer->write(wire, encoded.size) != Status::ok) {
+  if (!encoded.ok() || sender->send(wire, encoded.size) != Status::ok) {
     counters_.errors.fetch_add(1, std::memory_order_relaxed);
   }
 }
@@ -410,10 +488,8 @@ void ServiceClient::reply(std::uint16_t operation, const std::uint8_t* identity,
 void ServiceClient::describe(nlohmann::json& out) const {
   nlohmann::json operations = nlohmann::json::array();
   for (std::size_t i = 0; i < service_.operations.size(); ++i) {
-    nlohmann::json o = operation_json(service_.operations[i]);
-    if (i < endpoints_.size() && endpoints_[i]->request) {
-      o["matched_clients"] = endpoints_[i]->request->matched_writers();
-    }
+    nlohmann::json o = operation_json(service_.operations[i], address_key_);
+    if (i < endpoints_.size() && endpoints_[i]->request) endpoints_[i]->request->describe(o);
     operations.push_back(std::move(o));
   }
   out = {{"port", service_.required->name()},
@@ -423,4 +499,4 @@ void ServiceClient::describe(nlohmann::json& out) const {
          {"counters", counters_json(counters_)}};
 }
 
-}  // namespace polyport::dds
+}  // namespace polyport
