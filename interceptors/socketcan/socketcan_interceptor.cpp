@@ -201,6 +201,8 @@ Result<void> SocketCanInterceptor::attach(int ifindex) {
   if (::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &errors, sizeof errors) != 0) return fail("CAN_RAW_ERR_FILTER");
   const int on = 1;
   if (::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on) != 0) return fail("SO_TIMESTAMPNS");
+  // The count of frames the kernel dropped because this socket's buffer was full.
+  if (::setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) != 0) return fail("SO_RXQ_OVFL");
   sockaddr_can address{};
   address.can_family = AF_CAN;
   address.can_ifindex = ifindex;
@@ -215,6 +217,8 @@ Result<void> SocketCanInterceptor::attach(int ifindex) {
   // sockets die with their last reference, and the old BCM tasks with them.
   const int old_fd = fd_.load(std::memory_order_acquire);
   if (registered_) reactor_->remove_in_tick(old_fd);
+  // The new socket counts its drops from 0 (no handler runs now: this is the tick or start).
+  dropped_before_.fetch_add(dropped_.exchange(0, std::memory_order_relaxed), std::memory_order_relaxed);
   (void)::dup2(fd, old_fd);
   ::close(fd);
   if (registered_) {
@@ -381,7 +385,7 @@ void SocketCanInterceptor::on_readable() noexcept {
   for (int batch = 0; batch < 64; ++batch) {
     canfd_frame frame;
     iovec data{&frame, sizeof frame};
-    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timespec))];
+    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t))];
     msghdr header{};
     header.msg_iov = &data;
     header.msg_iovlen = 1;
@@ -408,6 +412,10 @@ void SocketCanInterceptor::on_readable() noexcept {
         timespec stamp;
         std::memcpy(&stamp, CMSG_DATA(c), sizeof stamp);
         t_source = MonoTime{ns_of(stamp)} + realtime_to_mono_;
+      } else if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL) {
+        std::uint32_t dropped;
+        std::memcpy(&dropped, CMSG_DATA(c), sizeof dropped);
+        dropped_.store(dropped, std::memory_order_relaxed);
       }
     }
     if ((frame.can_id & CAN_ERR_FLAG) != 0) {
@@ -562,6 +570,8 @@ void SocketCanInterceptor::describe(nlohmann::json& out) const {
                       {"events", events_.load(std::memory_order_relaxed)},
                       {"unknown_id", unknown_id_.load(std::memory_order_relaxed)},
                       {"read_errors", read_errors_.load(std::memory_order_relaxed)},
+                      {"kernel_dropped", dropped_before_.load(std::memory_order_relaxed) +
+                                             dropped_.load(std::memory_order_relaxed)},
                       {"ports", std::move(ports)}};
 }
 

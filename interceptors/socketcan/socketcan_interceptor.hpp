@@ -141,6 +141,10 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
   // Frames that passed the kernel filter but match no port: stays 0 while the filters work.
   std::atomic<std::uint64_t> unknown_id_{0};
   std::atomic<std::uint64_t> read_errors_{0};
+  // SO_RXQ_OVFL: frames the kernel dropped on a full receive buffer, on the current socket
+  // (reactor thread) and on the sockets before it (added up by attach()).
+  std::atomic<std::uint32_t> dropped_{0};
+  std::atomic<std::uint64_t> dropped_before_{0};
   // CLOCK_MONOTONIC - CLOCK_REALTIME, measured at start: SO_TIMESTAMPNS stamps frames with
   // CLOCK_REALTIME, polyport's t_source is CLOCK_MONOTONIC. A wall-clock step after start
   // shifts the converted stamps by the step until the next start.
