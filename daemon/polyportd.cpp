@@ -186,6 +186,24 @@ void print_final_stats(const nlohmann::json& stats) {
         }
       }
     }
+    if (c.contains("socketcan")) {
+      const auto& can = c["socketcan"];
+      const auto bus = can.value("bus", nlohmann::json::object());
+      spdlog::info("    CAN interface {}: {}, {} losses, {} returns; bus {}, {} error frames ({} bus-off)",
+                   can.value("interface", ""), can.value("link", ""), can.value("losses", 0),
+                   can.value("recoveries", 0), bus.value("state", ""), bus.value("error_frames", 0),
+                   bus.value("kinds", nlohmann::json::object()).value("bus_off", 0));
+      for (const auto& p : can.value("ports", nlohmann::json::array())) {
+        if (p.value("polyport", "") == "receives") {
+          spdlog::info("    CAN id {} ({}): {} received, {} of another length", p.value("can_id", ""),
+                       p.value("message", ""), p.value("received", 0), p.value("bad_length", 0));
+        } else {
+          spdlog::info("    CAN id {} ({}): {} sent, {} failed{}", p.value("can_id", ""), p.value("message", ""),
+                       p.value("sent", 0), p.value("send_failed", 0),
+                       p.value("cycle_ms", 0) != 0 ? ", every " + std::to_string(p.value("cycle_ms", 0)) + " ms" : "");
+        }
+      }
+    }
     if (!c.contains("dds")) continue;
     for (const auto& t : c["dds"].value("topics", nlohmann::json::array())) {
       if (t.value("polyport", "") == "reads") {
