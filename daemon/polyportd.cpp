@@ -100,16 +100,22 @@ std::string histogram_text(const nlohmann::json& h) {
 
 // Where a port lives in its model, from the model's part of the component's description
 // (describe(): lists of endpoints with the port they serve): " topic=...", " channel=..." or
-// " can_id=...".
+// " can_id=..." (with " cycle_ms=..." when periodic), or the SocketCAN bus event port.
 std::string native_endpoint(const nlohmann::json& component, const std::string& port) {
   for (const auto& [key, part] : component.items()) {
     if (!part.is_object()) continue;
+    // The SocketCAN model names its bus event port on its own.
+    if (part.value("bus_events", nlohmann::json()) == port) return "  can_bus_events";
     for (const auto& [list_key, list] : part.items()) {
       if (!list.is_array()) continue;
       for (const auto& endpoint : list) {
         if (!endpoint.is_object() || endpoint.value("port", "") != port) continue;
         for (const char* name : {"topic", "channel", "can_id"}) {
-          if (endpoint.contains(name)) return "  " + std::string(name) + "=" + endpoint[name].get<std::string>();
+          if (!endpoint.contains(name)) continue;
+          std::string text = "  " + std::string(name) + "=" + endpoint[name].get<std::string>();
+          // A CAN message the broadcast manager sends periodically.
+          if (endpoint.value("cycle_ms", 0) != 0) text += "  cycle_ms=" + std::to_string(endpoint.value("cycle_ms", 0));
+          return text;
         }
       }
     }
