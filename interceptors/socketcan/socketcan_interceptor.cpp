@@ -77,29 +77,25 @@ Status SocketCanInterceptor::FrameWriter::on_sample(const std::byte* data, const
     frame.flags = static_cast<std::uint8_t>(CANFD_FDF | (dbc.bit_rate_switch ? CANFD_BRS : 0));
     size = CANFD_MTU;
   }
-  ssize_t written = 0;
+  bool ok = false;
   if (message_.cycle_ms != 0) {
+    // Kept for reschedule(): words of the frame under the sequence lock.
+    const std::uint32_t sequence = sequence_.load(std::memory_order_relaxed);
+    sequence_.store(sequence + 1, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_release);
+    std::uint64_t words[kFrameWords];
+    std::memcpy(words, &frame, sizeof frame);
+    for (std::size_t i = 0; i < kFrameWords; ++i) last_[i].store(words[i], std::memory_order_relaxed);
+    sequence_.store(sequence + 2, std::memory_order_release);
     // The broadcast manager sends it: the first TX_SETUP starts the timer and sends the
     // frame at once (TX_ANNOUNCE); later ones only replace the data of the running task.
     const bool first = !scheduled.load(std::memory_order_acquire);
-    bcm_msg_head head{};
-    head.opcode = TX_SETUP;
-    head.can_id = message_.can_id;
-    head.nframes = 1;
-    head.flags = (first ? SETTIMER | STARTTIMER | TX_ANNOUNCE : 0U) | (dbc.fd ? CAN_FD_FRAME : 0U);
-    head.count = 0;
-    head.ival2.tv_sec = static_cast<long>(message_.cycle_ms / 1000);
-    head.ival2.tv_usec = static_cast<long>(message_.cycle_ms % 1000) * 1000;
-    BcmMessage message;
-    std::memcpy(message.bytes, &head, sizeof head);
-    std::memcpy(message.bytes + sizeof head, &frame, size);
-    size += sizeof head;
-    written = ::write(bcm_fd_.load(std::memory_order_acquire), message.bytes, size);
-    if (first && written == static_cast<ssize_t>(size)) scheduled.store(true, std::memory_order_release);
+    ok = setup(frame, size, first);
+    if (first && ok) scheduled.store(true, std::memory_order_release);
   } else {
-    written = ::write(fd_.load(std::memory_order_acquire), &frame, size);
+    ok = ::write(fd_.load(std::memory_order_acquire), &frame, size) == static_cast<ssize_t>(size);
   }
-  if (written != static_cast<ssize_t>(size)) {
+  if (!ok) {
     // EAGAIN / ENOBUFS: the interface's queue is full; the frame is dropped, never waited for.
     // ENXIO / ENODEV / ENETDOWN: the interface is gone or down; the tick re-attaches.
     counters_.send_failed.fetch_add(1, std::memory_order_relaxed);
@@ -107,6 +103,40 @@ Status SocketCanInterceptor::FrameWriter::on_sample(const std::byte* data, const
   }
   counters_.sent.fetch_add(1, std::memory_order_relaxed);
   return Status::ok;
+}
+
+bool SocketCanInterceptor::FrameWriter::setup(const canfd_frame& frame, std::size_t frame_size, bool first) noexcept {
+  bcm_msg_head head{};
+  head.opcode = TX_SETUP;
+  head.can_id = message_.can_id;
+  head.nframes = 1;
+  head.flags = (first ? SETTIMER | STARTTIMER | TX_ANNOUNCE : 0U) | (message_.dbc->fd ? CAN_FD_FRAME : 0U);
+  head.count = 0;
+  head.ival2.tv_sec = static_cast<long>(message_.cycle_ms / 1000);
+  head.ival2.tv_usec = static_cast<long>(message_.cycle_ms % 1000) * 1000;
+  BcmMessage message;
+  std::memcpy(message.bytes, &head, sizeof head);
+  std::memcpy(message.bytes + sizeof head, &frame, frame_size);
+  const std::size_t size = sizeof head + frame_size;
+  return ::write(bcm_fd_.load(std::memory_order_acquire), message.bytes, size) == static_cast<ssize_t>(size);
+}
+
+void SocketCanInterceptor::FrameWriter::reschedule() noexcept {
+  if (message_.cycle_ms == 0 || !active.load(std::memory_order_acquire)) return;
+  std::uint64_t words[kFrameWords];
+  for (;;) {
+    const std::uint32_t before = sequence_.load(std::memory_order_acquire);
+    if (before == 0) return;  // no sample yet: nothing to send
+    if ((before & 1U) != 0) continue;  // the sink is writing it now
+    for (std::size_t i = 0; i < kFrameWords; ++i) words[i] = last_[i].load(std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_acquire);
+    if (sequence_.load(std::memory_order_relaxed) == before) break;
+  }
+  canfd_frame frame;
+  std::memcpy(&frame, words, sizeof frame);
+  // A sink that runs now may start the task too (it sees scheduled false): both TX_SETUPs
+  // start the same task, the later data wins.
+  if (setup(frame, message_.dbc->fd ? CANFD_MTU : CAN_MTU, true)) scheduled.store(true, std::memory_order_release);
 }
 
 void SocketCanInterceptor::FrameWriter::unschedule() noexcept {
@@ -474,6 +504,9 @@ void SocketCanInterceptor::on_tick() noexcept {
         if (had_interface_) recoveries_.fetch_add(1, std::memory_order_relaxed);
         had_interface_ = true;
         last_attach_error_.clear();
+        for (auto& writer : writers_) {
+          if (writer) writer->reschedule();  // periodic messages go on with their last frame
+        }
         spdlog::info("{} is back (ifindex {}, {}): sockets re-created and re-bound, filters set", where(), ifindex,
                      up ? "up" : "down");
         emit(CanBusEventKind::interface_back, up ? CanBusState::active : CanBusState::down, mono_now());

@@ -15,7 +15,9 @@
 //    are counted as send_failed). A periodic port's sink writes a TX_SETUP for its id on
 //    the BCM socket instead: the first (and the first after a loss of the interface) with
 //    SETTIMER|STARTTIMER|TX_ANNOUNCE at ival2 = the cycle, later ones without flags, which
-//    replace the frame's data in place without touching the timer.
+//    replace the frame's data in place without touching the timer. The sink also keeps the
+//    frame (atomics under a sequence lock), so that the tick can start the task again on a
+//    re-created BCM socket.
 //  - error frames: decoded on the reactor thread into atomics (bus state, counters per
 //    kind and class) and written as a CanBusEvent to the optional event port.
 //  - supervision: on_tick runs on the reactor thread every CanReactor::kTickInterval. It
@@ -78,12 +80,25 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
     Status on_sample(const std::byte* data, const SampleMeta& meta) noexcept override;
     // Deletes the BCM task (control thread, after `active` went false).
     void unschedule() noexcept;
+    // Starts the BCM task again with the last frame sent, if there was one (the tick, after
+    // the interface came back and the BCM socket was re-created).
+    void reschedule() noexcept;
 
     std::atomic<bool> active{false};
     // Periodic: the BCM task exists with its timer running.
     std::atomic<bool> scheduled{false};
 
    private:
+    // Writes the BCM TX_SETUP of `frame`; true when the kernel took it.
+    bool setup(const canfd_frame& frame, std::size_t frame_size, bool first) noexcept;
+
+    // Periodic: the last frame handed to the broadcast manager, for reschedule(), as a
+    // sequence lock (the sink writes, the tick reads; odd `sequence_`: being written; 0: none).
+    static constexpr std::size_t kFrameWords = sizeof(canfd_frame) / sizeof(std::uint64_t);
+    static_assert(sizeof(canfd_frame) % sizeof(std::uint64_t) == 0);
+    std::atomic<std::uint32_t> sequence_{0};
+    std::atomic<std::uint64_t> last_[kFrameWords]{};
+
     const SocketCanAdaptor::Message& message_;
     const std::atomic<int>& fd_;
     const std::atomic<int>& bcm_fd_;
