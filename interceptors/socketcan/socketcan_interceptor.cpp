@@ -478,10 +478,10 @@ void SocketCanInterceptor::on_tick() noexcept {
     const bool exists = interface_flags(ifindex, up);
     const bool lost = lost_.exchange(false, std::memory_order_acq_rel);
     if (bound_ifindex_ != 0 && (!exists || ifindex != bound_ifindex_ || lost)) {
-      losses_.fetch_add(1, std::memory_order_relaxed);
       bound_ifindex_ = 0;
       ifindex_.store(0, std::memory_order_relaxed);
       link_.store(static_cast<int>(Link::missing), std::memory_order_relaxed);
+      losses_.fetch_add(1, std::memory_order_release);  // after the state it counts
       last_attach_error_.clear();
       spdlog::error("{} went away (deleted or re-created): no frames are received or sent until it is back; "
                     "retrying every {} ms",
@@ -496,17 +496,19 @@ void SocketCanInterceptor::on_tick() noexcept {
           spdlog::error("{} (retrying every {} ms)", last_attach_error_, retry_ms);
         }
       } else {
+        // The periodic messages go on with their last frame; before the counters below, so
+        // that whoever sees the return sees the tasks running.
+        for (auto& writer : writers_) {
+          if (writer) writer->reschedule();
+        }
         bound_ifindex_ = ifindex;
         ifindex_.store(ifindex, std::memory_order_relaxed);
         was_up_ = up;
         link_.store(static_cast<int>(up ? Link::up : Link::down), std::memory_order_relaxed);
         bus_state_.store(static_cast<std::int32_t>(CanBusState::active), std::memory_order_relaxed);
-        if (had_interface_) recoveries_.fetch_add(1, std::memory_order_relaxed);
+        if (had_interface_) recoveries_.fetch_add(1, std::memory_order_release);  // after everything above
         had_interface_ = true;
         last_attach_error_.clear();
-        for (auto& writer : writers_) {
-          if (writer) writer->reschedule();  // periodic messages go on with their last frame
-        }
         spdlog::info("{} is back (ifindex {}, {}): sockets re-created and re-bound, filters set", where(), ifindex,
                      up ? "up" : "down");
         emit(CanBusEventKind::interface_back, up ? CanBusState::active : CanBusState::down, mono_now());
@@ -516,11 +518,11 @@ void SocketCanInterceptor::on_tick() noexcept {
       was_up_ = up;
       link_.store(static_cast<int>(up ? Link::up : Link::down), std::memory_order_relaxed);
       if (up) {
-        came_up_.fetch_add(1, std::memory_order_relaxed);
+        came_up_.fetch_add(1, std::memory_order_release);
         spdlog::info("{} is up again", where());
         emit(CanBusEventKind::interface_up, CanBusState::active, mono_now());
       } else {
-        went_down_.fetch_add(1, std::memory_order_relaxed);
+        went_down_.fetch_add(1, std::memory_order_release);
         spdlog::error("{} is down: no frames until it is up again (`ip link set {} up`)", where(), name);
         emit(CanBusEventKind::interface_down, CanBusState::down, mono_now());
       }
@@ -587,10 +589,10 @@ void SocketCanInterceptor::describe(nlohmann::json& out) const {
                       {"fd", settings.fd},
                       {"link", kLinkNames[link_.load(std::memory_order_relaxed)]},
                       {"ifindex", ifindex_.load(std::memory_order_relaxed)},
-                      {"losses", losses_.load(std::memory_order_relaxed)},
-                      {"recoveries", recoveries_.load(std::memory_order_relaxed)},
-                      {"went_down", went_down_.load(std::memory_order_relaxed)},
-                      {"came_up", came_up_.load(std::memory_order_relaxed)},
+                      {"losses", losses_.load(std::memory_order_acquire)},
+                      {"recoveries", recoveries_.load(std::memory_order_acquire)},
+                      {"went_down", went_down_.load(std::memory_order_acquire)},
+                      {"came_up", came_up_.load(std::memory_order_acquire)},
                       {"attach_failures", attach_failures_.load(std::memory_order_relaxed)},
                       {"bus",
                        {{"state", kBusStateNames[bus_state_.load(std::memory_order_relaxed)]},
