@@ -87,7 +87,7 @@ void CanReactor::remove(int fd) noexcept {
 
 void CanReactor::remove_in_tick(int fd) noexcept { (void)::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd, nullptr); }
 
-Result<void> CanReactor::add_in_tick(int fd, ReadableHandler& handler) noexcept {
+Result<void> CanReactor::add_in_tick(int fd, ReadableHandler& handler) {
   epoll_event event{};
   event.events = EPOLLIN;
   event.data.ptr = &handler;

@@ -56,7 +56,7 @@ class CanReactor {
   void remove(int fd) noexcept;
   // The same, from a Supervised's on_tick (the reactor thread itself, so nothing to wait for).
   void remove_in_tick(int fd) noexcept;
-  Result<void> add_in_tick(int fd, ReadableHandler& handler) noexcept;
+  Result<void> add_in_tick(int fd, ReadableHandler& handler);
 
   // Calls `supervised.on_tick()` every kTickInterval from now on; starts the thread. Control thread.
   Result<void> watch(Supervised& supervised);
