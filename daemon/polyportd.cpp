@@ -100,11 +100,14 @@ std::string histogram_text(const nlohmann::json& h) {
 
 // Where a port lives in its model, from the model's part of the component's description
 // (describe(): lists of endpoints with the port they serve): " topic=...", " channel=..." or
-// " can_id=..."; for a service port, each operation's request and reply topics or channels
-// with their types (" add: request_channel=calc/add/request [peer.add_request_t] ...").
+// " can_id=..." (with " cycle_ms=..." when periodic), or the SocketCAN bus event port; for a
+// service port, each operation's request and reply topics or channels with their types
+// (" add: request_channel=calc/add/request [peer.add_request_t] ...").
 std::string native_endpoint(const nlohmann::json& component, const std::string& port) {
   for (const auto& [key, part] : component.items()) {
     if (!part.is_object()) continue;
+    // The SocketCAN model names its bus event port on its own.
+    if (part.value("bus_events", nlohmann::json()) == port) return "  can_bus_events";
     for (const auto& [list_key, list] : part.items()) {
       if (!list.is_array()) continue;
       for (const auto& endpoint : list) {
@@ -125,7 +128,11 @@ std::string native_endpoint(const nlohmann::json& component, const std::string& 
           return text;
         }
         for (const char* name : {"topic", "channel", "can_id"}) {
-          if (endpoint.contains(name)) return "  " + std::string(name) + "=" + endpoint[name].get<std::string>();
+          if (!endpoint.contains(name)) continue;
+          std::string text = "  " + std::string(name) + "=" + endpoint[name].get<std::string>();
+          // A CAN message the broadcast manager sends periodically.
+          if (endpoint.value("cycle_ms", 0) != 0) text += "  cycle_ms=" + std::to_string(endpoint.value("cycle_ms", 0));
+          return text;
         }
       }
     }
@@ -211,6 +218,24 @@ void print_final_stats(const nlohmann::json& stats) {
                      sv.value("port", ""), sv.value("polyport", ""), counters.value("calls", 0),
                      counters.value("replies", 0), counters.value("errors", 0), counters.value("timeouts", 0),
                      counters.value("refused", 0), counters.value("malformed", 0), counters.value("unmatched", 0));
+      }
+    }
+    if (c.contains("socketcan")) {
+      const auto& can = c["socketcan"];
+      const auto bus = can.value("bus", nlohmann::json::object());
+      spdlog::info("    CAN interface {}: {}, {} losses, {} returns; bus {}, {} error frames ({} bus-off)",
+                   can.value("interface", ""), can.value("link", ""), can.value("losses", 0),
+                   can.value("recoveries", 0), bus.value("state", ""), bus.value("error_frames", 0),
+                   bus.value("kinds", nlohmann::json::object()).value("bus_off", 0));
+      for (const auto& p : can.value("ports", nlohmann::json::array())) {
+        if (p.value("polyport", "") == "receives") {
+          spdlog::info("    CAN id {} ({}): {} received, {} of another length", p.value("can_id", ""),
+                       p.value("message", ""), p.value("received", 0), p.value("bad_length", 0));
+        } else {
+          spdlog::info("    CAN id {} ({}): {} sent, {} failed{}", p.value("can_id", ""), p.value("message", ""),
+                       p.value("sent", 0), p.value("send_failed", 0),
+                       p.value("cycle_ms", 0) != 0 ? ", every " + std::to_string(p.value("cycle_ms", 0)) + " ms" : "");
+        }
       }
     }
     if (!c.contains("dds")) continue;

@@ -1,7 +1,9 @@
 #include "socketcan_adaptor.hpp"
 
 #include <algorithm>
+#include <cstddef>
 #include <cstdio>
+#include <iterator>
 
 #include "polyport/runtime/port.hpp"
 
@@ -42,7 +44,7 @@ bool SocketCanAdaptor::add_message(const PortSpec& spec, const TypeRegistry& typ
   if (spec.data_type.empty()) {
     diagnostics.error(spec.where, {},
                       what + ": a CAN port carries the frames of one DBC message; name it in <data_type> "
-                             "(events without a payload, e.g. bus-off, are planned)");
+                             "(or polyport::CanBusEvent for the bus's errors, config/types/can_bus_event.idl)");
     return false;
   }
   const Type* type = types.find(spec.data_type);
@@ -51,11 +53,13 @@ bool SocketCanAdaptor::add_message(const PortSpec& spec, const TypeRegistry& typ
     return false;
   }
   const Type& resolved = type->resolved();
+  if (resolved.name == kCanBusEventType) return add_bus_events(spec, *type, diagnostics);
   const DbcMessage* dbc = resolved.dbc;
   if (dbc == nullptr) {
     diagnostics.error(spec.where, {},
                       what + ": type '" + spec.data_type +
-                          "' is not a DBC message; a CAN port's <data_type> is a message of a .dbc file in <types>");
+                          "' is not a DBC message; a CAN port's <data_type> is a message of a .dbc file in <types> "
+                          "(or polyport::CanBusEvent for the bus's errors, config/types/can_bus_event.idl)");
     return false;
   }
   if (dbc->fd && !settings_->fd) {
@@ -97,8 +101,52 @@ bool SocketCanAdaptor::add_message(const PortSpec& spec, const TypeRegistry& typ
     // Push mode: the interceptor sets the sink; policy and depth are not used.
     message.in = &add_port<DataInPort>(spec.name, spec.kind, type, max_bytes, QueuePolicy::data, 1U);
     message.in->set_wire_format(WireFormat::dbc, codec_ptr);
+    message.cycle_ms = settings_->cycle(spec.name).value_or(dbc->cycle_time_ms);
   }
   messages_.push_back(std::move(message));
+  return true;
+}
+
+bool SocketCanAdaptor::add_bus_events(const PortSpec& spec, const Type& type, Diagnostics& diagnostics) {
+  const std::string what = std::string(spec.kind == PortKind::event ? "event" : "data") + " port '" + spec.name +
+                           "' of type " + kCanBusEventType;
+  if (spec.direction != PortDirection::output) {
+    diagnostics.error(spec.where, {}, what + ": the bus's events come from the bus; say <usage>output</usage>");
+    return false;
+  }
+  if (bus_events_ != nullptr) {
+    diagnostics.error(spec.where, {}, what + ": port '" + bus_events_->name() + "' already carries them; one per component");
+    return false;
+  }
+  // The layout CanBusEventSample mirrors (config/types/can_bus_event.idl).
+  struct Expected {
+    const char* name;
+    std::uint32_t offset;
+    std::uint32_t size;
+  };
+  constexpr Expected kFields[] = {
+      {"kind", offsetof(CanBusEventSample, kind), 4},
+      {"state", offsetof(CanBusEventSample, state), 4},
+      {"error_class", offsetof(CanBusEventSample, error_class), 4},
+      {"controller", offsetof(CanBusEventSample, controller), 1},
+      {"protocol", offsetof(CanBusEventSample, protocol), 1},
+      {"tx_errors", offsetof(CanBusEventSample, tx_errors), 1},
+      {"rx_errors", offsetof(CanBusEventSample, rx_errors), 1},
+  };
+  const Type& resolved = type.resolved();
+  bool same = resolved.kind == TypeKind::structure && resolved.size == sizeof(CanBusEventSample) &&
+              resolved.fields.size() == std::size(kFields);
+  for (const Expected& field : kFields) {
+    const Field* found = same ? resolved.find_field(field.name) : nullptr;
+    same = same && found != nullptr && found->offset == field.offset && found->type->resolved().size == field.size;
+  }
+  if (!same) {
+    diagnostics.error(spec.where, {},
+                      what + ": the type does not have the layout of config/types/can_bus_event.idl; "
+                             "name that file in <types>");
+    return false;
+  }
+  bus_events_ = &add_port<DataOutPort>(spec.name, spec.kind, &type, static_cast<std::uint32_t>(sizeof(CanBusEventSample)));
   return true;
 }
 

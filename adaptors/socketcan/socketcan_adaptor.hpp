@@ -7,6 +7,10 @@
 // the message's id (the interceptor receives them and writes the port), an `input` port the
 // frames polyport sends with that id (the interceptor writes them from the port's sink).
 //
+// An optional output event port of type polyport::CanBusEvent (config/types/can_bus_event.idl,
+// flat layout: CanBusEventSample below) carries the bus's error frames and the interface's
+// losses and returns; the interceptor writes it on the reactor thread.
+//
 // Ownership: the adaptor owns its ports and codecs; the DbcMessage belongs to the type
 // registry; the interceptor keeps raw pointers to the ports for as long as the proxy lives.
 #pragma once
@@ -26,6 +30,27 @@
 
 namespace polyport::socketcan {
 
+// The flat sample of polyport::CanBusEvent; create() checks that the registered type has
+// exactly this layout.
+struct CanBusEventSample {
+  std::int32_t kind = 0;   // polyport::CanBusEventKind
+  std::int32_t state = 0;  // polyport::CanBusState
+  std::uint32_t error_class = 0;
+  std::uint8_t controller = 0;
+  std::uint8_t protocol = 0;
+  std::uint8_t tx_errors = 0;
+  std::uint8_t rx_errors = 0;
+};
+static_assert(sizeof(CanBusEventSample) == 16);
+inline constexpr const char* kCanBusEventType = "polyport::CanBusEvent";
+
+// The enumerators of polyport::CanBusEventKind and polyport::CanBusState, in IDL order.
+enum class CanBusEventKind : std::int32_t {
+  error_frame, error_warning, error_passive, bus_off, restarted, error_active,
+  interface_missing, interface_back, interface_down, interface_up,
+};
+enum class CanBusState : std::int32_t { active, warning, passive, bus_off, down, missing };
+
 class SocketCanAdaptor final : public Component {
  public:
   // One port's message.
@@ -35,6 +60,9 @@ class SocketCanAdaptor final : public Component {
     std::uint32_t can_id = 0;         // canid_t: CAN_EFF_FLAG for 29-bit ids
     DataOutPort* out = nullptr;       // `output`: frames received from the bus
     DataInPort* in = nullptr;         // `input`: frames polyport sends
+    // `input` only: the broadcast manager sends the last sample every cycle_ms (the
+    // profile's <cycle_ms>, else the DBC's GenMsgCycleTime); 0: each sample once.
+    std::uint32_t cycle_ms = 0;
   };
 
   SocketCanAdaptor(std::string name, std::string model) : Component(std::move(name), std::move(model)) {}
@@ -46,12 +74,16 @@ class SocketCanAdaptor final : public Component {
 
   const std::vector<Message>& messages() const noexcept { return messages_; }
   const SocketCanSettings& settings() const noexcept { return *settings_; }
+  // The polyport::CanBusEvent port; null when the profile has none.
+  DataOutPort* bus_events() const noexcept { return bus_events_; }
 
  private:
   bool add_message(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics);
+  bool add_bus_events(const PortSpec& spec, const Type& type, Diagnostics& diagnostics);
 
   std::shared_ptr<const SocketCanSettings> settings_;
   std::vector<Message> messages_;
+  DataOutPort* bus_events_ = nullptr;
   std::vector<std::unique_ptr<Codec>> codecs_;
 };
 

@@ -32,8 +32,24 @@ class SocketCanReader final : public ComponentSectionReader {
     }
   }
 
-  // The message of a port is its data_type; SocketCAN ports have no element of their own.
-  void read_port(const PortSpec&, const ProfileChildren&) override {}
+  // The message of a port is its data_type; a port polyport sends may have a <cycle_ms>.
+  void read_port(const PortSpec& port, const ProfileChildren& elements) override {
+    const ProfileElement cycle = elements.one("cycle_ms");
+    if (!cycle) return;
+    if (port.direction != PortDirection::input) {
+      cycle.error_text("<cycle_ms> is for a port polyport sends (usage input); port '" + port.name +
+                       "' receives frames from the bus");
+      return;
+    }
+    const std::string written = cycle.text();
+    const auto value = text::parse_integer<std::uint32_t>(written);
+    if (!value || *value > kMaxCycleMs) {
+      cycle.error_text("bad cycle_ms " + in_quotes(written) + ": expected whole milliseconds from 0 to " +
+                       std::to_string(kMaxCycleMs));
+      return;
+    }
+    settings_->cycle_ms[port.name] = *value;
+  }
   void read_operation(const PortSpec&, const OperationSpec&, const ProfileElement&, std::vector<TypeUse>&) override {}
 
   std::shared_ptr<const ModelSettings> finish() override { return settings_; }
@@ -66,7 +82,7 @@ std::shared_ptr<const SocketCanSettings> socketcan_settings(const ComponentProfi
 }
 
 const ModelVocabulary& SocketCanSection::vocabulary() const noexcept {
-  static const ModelVocabulary kVocabulary{{"socketcan"}, {}, {}};
+  static const ModelVocabulary kVocabulary{{"socketcan"}, {"cycle_ms"}, {}};
   return kVocabulary;
 }
 

@@ -2,13 +2,20 @@
 
 #include <sys/epoll.h>
 #include <sys/eventfd.h>
+#include <sys/timerfd.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <string>
 
 namespace polyport::socketcan {
+
+namespace {
+// epoll_event.data.ptr of the timer descriptor (the wake-up descriptor has null).
+int timer_tag = 0;
+}  // namespace
 
 std::shared_ptr<CanReactor> CanReactor::create() { return std::shared_ptr<CanReactor>(new CanReactor()); }
 
@@ -19,11 +26,13 @@ CanReactor::~CanReactor() {
     (void)::write(wake_fd_, &one, sizeof one);
     thread_.join();
   }
+  if (timer_fd_ >= 0) ::close(timer_fd_);
   if (wake_fd_ >= 0) ::close(wake_fd_);
   if (epoll_fd_ >= 0) ::close(epoll_fd_);
 }
 
 Result<void> CanReactor::start() {
+  const std::lock_guard lock(start_mutex_);
   if (thread_.joinable()) return {};
   epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
   if (epoll_fd_ < 0) return make_error(std::string("epoll_create1: ") + std::strerror(errno));
@@ -33,6 +42,18 @@ Result<void> CanReactor::start() {
   event.events = EPOLLIN;
   event.data.ptr = nullptr;  // the wake-up descriptor
   if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, wake_fd_, &event) != 0) {
+    return make_error(std::string("epoll_ctl: ") + std::strerror(errno));
+  }
+  timer_fd_ = ::timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC | TFD_NONBLOCK);
+  if (timer_fd_ < 0) return make_error(std::string("timerfd_create: ") + std::strerror(errno));
+  itimerspec period{};
+  period.it_interval.tv_nsec = std::chrono::nanoseconds(kTickInterval).count();
+  period.it_value = period.it_interval;
+  if (::timerfd_settime(timer_fd_, 0, &period, nullptr) != 0) {
+    return make_error(std::string("timerfd_settime: ") + std::strerror(errno));
+  }
+  event.data.ptr = &timer_tag;
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, timer_fd_, &event) != 0) {
     return make_error(std::string("epoll_ctl: ") + std::strerror(errno));
   }
   thread_ = std::thread([this] { run(); });
@@ -64,13 +85,46 @@ void CanReactor::remove(int fd) noexcept {
   }
 }
 
+void CanReactor::remove_in_tick(int fd) noexcept { (void)::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd, nullptr); }
+
+Result<void> CanReactor::add_in_tick(int fd, ReadableHandler& handler) {
+  epoll_event event{};
+  event.events = EPOLLIN;
+  event.data.ptr = &handler;
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &event) != 0) {
+    return make_error(std::string("epoll_ctl(EPOLL_CTL_ADD): ") + std::strerror(errno));
+  }
+  return {};
+}
+
+Result<void> CanReactor::watch(Supervised& supervised) {
+  if (auto started = start(); !started) return started;
+  const std::lock_guard lock(supervised_mutex_);
+  supervised_.push_back(&supervised);
+  return {};
+}
+
+void CanReactor::unwatch(Supervised& supervised) noexcept {
+  const std::lock_guard lock(supervised_mutex_);
+  supervised_.erase(std::remove(supervised_.begin(), supervised_.end(), &supervised), supervised_.end());
+}
+
+void CanReactor::tick() noexcept {
+  std::uint64_t expirations = 0;
+  (void)::read(timer_fd_, &expirations, sizeof expirations);
+  const std::lock_guard lock(supervised_mutex_);
+  for (Supervised* supervised : supervised_) supervised->on_tick();
+}
+
 void CanReactor::run() noexcept {
   constexpr int kMaxEvents = 16;
   epoll_event events[kMaxEvents];
   while (!stopping_.load(std::memory_order_acquire)) {
     const int ready = ::epoll_wait(epoll_fd_, events, kMaxEvents, -1);
     for (int i = 0; i < ready; ++i) {
-      if (auto* handler = static_cast<ReadableHandler*>(events[i].data.ptr)) {
+      if (events[i].data.ptr == &timer_tag) {
+        tick();
+      } else if (auto* handler = static_cast<ReadableHandler*>(events[i].data.ptr)) {
         handler->on_readable();
       } else {
         std::uint64_t count = 0;

@@ -5,12 +5,21 @@
 // eventfd, and calls a socket's handler when it is readable, so handlers run on it. add()
 // and remove() run on the control thread; after remove() returns, the handler is not
 // running and is not called again, so its owner may close the socket and go away.
+// The same thread runs the supervision tick: every kTickInterval (a timerfd in the same
+// epoll set) it calls on_tick() of each watched Supervised, which checks its interface,
+// re-creates sockets, logs and reports; the tick is not the forwarding path (it may allocate
+// and log) and never runs while a handler does, so both may write the same ports. watch()
+// and unwatch() run on the control thread; after unwatch() returns, on_tick is not running
+// and is not called again.
 #pragma once
 
 #include <atomic>
 #include <cstdint>
+#include <chrono>
 #include <memory>
+#include <mutex>
 #include <thread>
+#include <vector>
 
 #include "polyport/base/result.hpp"
 
@@ -23,8 +32,18 @@ class ReadableHandler {
   virtual void on_readable() noexcept = 0;
 };
 
+// Checks and repairs what a handler cannot (interfaces that went away), on the reactor
+// thread, every kTickInterval.
+class Supervised {
+ public:
+  virtual ~Supervised() = default;
+  virtual void on_tick() noexcept = 0;
+};
+
 class CanReactor {
  public:
+  static constexpr std::chrono::milliseconds kTickInterval{500};
+
   // Nothing is opened before the first add(), so a profile is checked on any host.
   static std::shared_ptr<CanReactor> create();
   ~CanReactor();
@@ -35,14 +54,28 @@ class CanReactor {
   Result<void> add(int fd, ReadableHandler& handler);
   // Stops watching `fd` and waits until the thread is past any call of its handler.
   void remove(int fd) noexcept;
+  // The same, from a Supervised's on_tick (the reactor thread itself, so nothing to wait for).
+  void remove_in_tick(int fd) noexcept;
+  Result<void> add_in_tick(int fd, ReadableHandler& handler);
+
+  // Calls `supervised.on_tick()` every kTickInterval from now on; starts the thread. Control thread.
+  Result<void> watch(Supervised& supervised);
+  // Stops the ticks for it, waiting for one in progress. Control thread.
+  void unwatch(Supervised& supervised) noexcept;
 
  private:
   CanReactor() = default;
   Result<void> start();
   void run() noexcept;
+  void tick() noexcept;
 
   int epoll_fd_ = -1;
   int wake_fd_ = -1;
+  int timer_fd_ = -1;
+  std::mutex start_mutex_;  // start() from add() and watch()
+  // The watched ones; the tick holds the mutex while it calls them (not the forwarding path).
+  std::mutex supervised_mutex_;
+  std::vector<Supervised*> supervised_;
   std::atomic<bool> stopping_{false};
   // Rounds of epoll_wait + dispatch completed; remove() waits for the one in progress.
   std::atomic<std::uint64_t> rounds_{0};

@@ -1,6 +1,8 @@
 #include "socketcan_interceptor.hpp"
 
 #include <linux/can.h>
+#include <linux/can/bcm.h>
+#include <linux/can/error.h>
 #include <linux/can/raw.h>
 #include <net/if.h>
 #include <sys/ioctl.h>
@@ -12,9 +14,11 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <iterator>
 #include <string>
 
 #include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
 
 #include "polyport/runtime/component_api.hpp"
 
@@ -44,6 +48,17 @@ std::int64_t ns_of(const timespec& t) noexcept {
   return static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
 }
 
+// A TX_SETUP of one frame: bcm_msg_head, then the frame (can_frame or canfd_frame), contiguous.
+struct BcmMessage {
+  alignas(8) unsigned char bytes[sizeof(bcm_msg_head) + CANFD_MTU];
+};
+
+constexpr const char* kBusStateNames[] = {"error-active", "error-warning", "error-passive", "bus-off", "down", "missing"};
+constexpr const char* kErrorKindNames[] = {"other", "error_warning", "error_passive", "bus_off", "restarted", "error_active"};
+constexpr const char* kErrorClassNames[] = {"tx_timeout", "lost_arbitration", "controller", "protocol", "transceiver",
+                                            "no_ack", "bus_off", "bus_error", "restarted", "counters"};
+constexpr const char* kLinkNames[] = {"up", "down", "missing"};
+
 }  // namespace
 
 Status SocketCanInterceptor::FrameWriter::on_sample(const std::byte* data, const SampleMeta& meta) noexcept {
@@ -62,14 +77,74 @@ Status SocketCanInterceptor::FrameWriter::on_sample(const std::byte* data, const
     frame.flags = static_cast<std::uint8_t>(CANFD_FDF | (dbc.bit_rate_switch ? CANFD_BRS : 0));
     size = CANFD_MTU;
   }
-  const ssize_t written = ::write(fd_.load(std::memory_order_acquire), &frame, size);
-  if (written != static_cast<ssize_t>(size)) {
+  bool ok = false;
+  if (message_.cycle_ms != 0) {
+    // Kept for reschedule(): words of the frame under the sequence lock.
+    const std::uint32_t sequence = sequence_.load(std::memory_order_relaxed);
+    sequence_.store(sequence + 1, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_release);
+    std::uint64_t words[kFrameWords];
+    std::memcpy(words, &frame, sizeof frame);
+    for (std::size_t i = 0; i < kFrameWords; ++i) last_[i].store(words[i], std::memory_order_relaxed);
+    sequence_.store(sequence + 2, std::memory_order_release);
+    // The broadcast manager sends it: the first TX_SETUP starts the timer and sends the
+    // frame at once (TX_ANNOUNCE); later ones only replace the data of the running task.
+    const bool first = !scheduled.load(std::memory_order_acquire);
+    ok = setup(frame, size, first);
+    if (first && ok) scheduled.store(true, std::memory_order_release);
+  } else {
+    ok = ::write(fd_.load(std::memory_order_acquire), &frame, size) == static_cast<ssize_t>(size);
+  }
+  if (!ok) {
     // EAGAIN / ENOBUFS: the interface's queue is full; the frame is dropped, never waited for.
+    // ENXIO / ENODEV / ENETDOWN: the interface is gone or down; the tick re-attaches.
     counters_.send_failed.fetch_add(1, std::memory_order_relaxed);
     return Status::error;
   }
   counters_.sent.fetch_add(1, std::memory_order_relaxed);
   return Status::ok;
+}
+
+bool SocketCanInterceptor::FrameWriter::setup(const canfd_frame& frame, std::size_t frame_size, bool first) noexcept {
+  bcm_msg_head head{};
+  head.opcode = TX_SETUP;
+  head.can_id = message_.can_id;
+  head.nframes = 1;
+  head.flags = (first ? SETTIMER | STARTTIMER | TX_ANNOUNCE : 0U) | (message_.dbc->fd ? CAN_FD_FRAME : 0U);
+  head.count = 0;
+  head.ival2.tv_sec = static_cast<long>(message_.cycle_ms / 1000);
+  head.ival2.tv_usec = static_cast<long>(message_.cycle_ms % 1000) * 1000;
+  BcmMessage message;
+  std::memcpy(message.bytes, &head, sizeof head);
+  std::memcpy(message.bytes + sizeof head, &frame, frame_size);
+  const std::size_t size = sizeof head + frame_size;
+  return ::write(bcm_fd_.load(std::memory_order_acquire), message.bytes, size) == static_cast<ssize_t>(size);
+}
+
+void SocketCanInterceptor::FrameWriter::reschedule() noexcept {
+  if (message_.cycle_ms == 0 || !active.load(std::memory_order_acquire)) return;
+  std::uint64_t words[kFrameWords];
+  for (;;) {
+    const std::uint32_t before = sequence_.load(std::memory_order_acquire);
+    if (before == 0) return;  // no sample yet: nothing to send
+    if ((before & 1U) != 0) continue;  // the sink is writing it now
+    for (std::size_t i = 0; i < kFrameWords; ++i) words[i] = last_[i].load(std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_acquire);
+    if (sequence_.load(std::memory_order_relaxed) == before) break;
+  }
+  canfd_frame frame;
+  std::memcpy(&frame, words, sizeof frame);
+  // A sink that runs now may start the task too (it sees scheduled false): both TX_SETUPs
+  // start the same task, the later data wins.
+  if (setup(frame, message_.dbc->fd ? CANFD_MTU : CAN_MTU, true)) scheduled.store(true, std::memory_order_release);
+}
+
+void SocketCanInterceptor::FrameWriter::unschedule() noexcept {
+  if (!scheduled.exchange(false, std::memory_order_acq_rel)) return;
+  bcm_msg_head head{};
+  head.opcode = TX_DELETE;
+  head.can_id = message_.can_id;
+  (void)::write(bcm_fd_.load(std::memory_order_acquire), &head, sizeof head);
 }
 
 SocketCanInterceptor::SocketCanInterceptor(SocketCanAdaptor& adaptor, std::shared_ptr<CanReactor> reactor)
@@ -82,8 +157,9 @@ SocketCanInterceptor::SocketCanInterceptor(SocketCanAdaptor& adaptor, std::share
       by_can_id_.emplace_back(message.can_id, i);
       writers_.push_back(nullptr);
     } else {
-      writers_.push_back(std::make_unique<FrameWriter>(message, fd_, counters_[i]));
+      writers_.push_back(std::make_unique<FrameWriter>(message, fd_, bcm_fd_, counters_[i]));
       message.in->set_sink(writers_.back().get());  // before wiring: the connection is push mode
+      periodic_ = periodic_ || message.cycle_ms != 0;
     }
   }
   std::sort(by_can_id_.begin(), by_can_id_.end());
@@ -92,23 +168,38 @@ SocketCanInterceptor::SocketCanInterceptor(SocketCanAdaptor& adaptor, std::share
 SocketCanInterceptor::~SocketCanInterceptor() {
   stop();
   if (const int fd = fd_.exchange(-1); fd >= 0) ::close(fd);
+  if (const int fd = bcm_fd_.exchange(-1); fd >= 0) ::close(fd);
 }
 
-Result<void> SocketCanInterceptor::open_socket() {
+std::string SocketCanInterceptor::where() const {
+  return adaptor_.name() + ": CAN interface '" + adaptor_.settings().interface + "'";
+}
+
+Result<void> SocketCanInterceptor::create_sockets() {
+  const int fd = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
+  if (fd < 0) return make_error(where() + ": socket(PF_CAN, SOCK_RAW, CAN_RAW): " + errno_text(errno));
+  fd_.store(fd, std::memory_order_release);  // unbound: receives nothing until attach() replaces it
+  if (periodic_) {
+    const int bcm = ::socket(PF_CAN, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_BCM);
+    if (bcm < 0) {
+      return make_error(where() + ": socket(PF_CAN, SOCK_DGRAM, CAN_BCM) for the periodic messages: " +
+                        errno_text(errno) + " (kernel module can-bcm)");
+    }
+    bcm_fd_.store(bcm, std::memory_order_release);
+  }
+  return {};
+}
+
+Result<void> SocketCanInterceptor::attach(int ifindex) {
   const SocketCanSettings& settings = adaptor_.settings();
   const std::string& name = settings.interface;
-  const std::string where = adaptor_.name() + ": CAN interface '" + name + "'";
-  const unsigned ifindex = ::if_nametoindex(name.c_str());
-  if (ifindex == 0) {
-    return make_error(where + " does not exist (" + errno_text(errno) +
-                      "); create it first, e.g. `ip link add dev " + name + " type vcan && ip link set " + name +
-                      " up` (waiting for it to appear is planned)");
-  }
   const int fd = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
-  if (fd < 0) return make_error(where + ": socket(PF_CAN, SOCK_RAW, CAN_RAW): " + errno_text(errno));
+  if (fd < 0) return make_error(where() + ": socket(PF_CAN, SOCK_RAW, CAN_RAW): " + errno_text(errno));
+  int bcm = -1;
   auto fail = [&](const std::string& what) {
-    const std::string message = where + ": " + what + ": " + errno_text(errno);
+    const std::string message = where() + ": " + what + ": " + errno_text(errno);
     ::close(fd);
+    if (bcm >= 0) ::close(bcm);
     return make_error(message);
   };
   if (settings.fd) {
@@ -117,7 +208,7 @@ Result<void> SocketCanInterceptor::open_socket() {
     if (::ioctl(fd, SIOCGIFMTU, &request) != 0) return fail("SIOCGIFMTU");
     if (request.ifr_mtu != static_cast<int>(CANFD_MTU)) {
       ::close(fd);
-      return make_error(where + " carries no CAN FD frames (MTU " + std::to_string(request.ifr_mtu) +
+      return make_error(where() + " carries no CAN FD frames (MTU " + std::to_string(request.ifr_mtu) +
                         "), but the profile says <fd>true</fd>; e.g. `ip link set " + name + " mtu 72`");
     }
     const int on = 1;
@@ -125,7 +216,7 @@ Result<void> SocketCanInterceptor::open_socket() {
   }
   // Exactly the output ports' ids: the id bits, the EFF flag (an 11-bit id never matches a
   // 29-bit one) and the RTR flag (remote requests carry no data) all in the mask. No filter
-  // at all (a component with input ports only) receives nothing.
+  // at all (a component with input ports only) receives no data frame.
   std::vector<can_filter> filters;
   for (const auto& [can_id, index] : by_can_id_) {
     const bool extended = (can_id & CAN_EFF_FLAG) != 0;
@@ -135,20 +226,62 @@ Result<void> SocketCanInterceptor::open_socket() {
                    static_cast<socklen_t>(filters.size() * sizeof(can_filter))) != 0) {
     return fail("CAN_RAW_FILTER");
   }
+  // Every error frame: they pass CAN_RAW_FILTER only through this mask.
+  const can_err_mask_t errors = CAN_ERR_MASK;
+  if (::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &errors, sizeof errors) != 0) return fail("CAN_RAW_ERR_FILTER");
   const int on = 1;
   if (::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on) != 0) return fail("SO_TIMESTAMPNS");
+  // The count of frames the kernel dropped because this socket's buffer was full.
+  if (::setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) != 0) return fail("SO_RXQ_OVFL");
   sockaddr_can address{};
   address.can_family = AF_CAN;
-  address.can_ifindex = static_cast<int>(ifindex);
+  address.can_ifindex = ifindex;
   if (::bind(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) return fail("bind");
-  fd_.store(fd, std::memory_order_release);
+  if (periodic_) {
+    bcm = ::socket(PF_CAN, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_BCM);
+    if (bcm < 0) return fail("socket(PF_CAN, SOCK_DGRAM, CAN_BCM)");
+    if (::connect(bcm, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) return fail("BCM connect");
+  }
+  // Swap them in under the same descriptor numbers: a sink that loaded the number a moment
+  // ago writes to the old socket or to the new one, never to a reused number. The old
+  // sockets die with their last reference, and the old BCM tasks with them.
+  const int old_fd = fd_.load(std::memory_order_acquire);
+  if (registered_) reactor_->remove_in_tick(old_fd);
+  // The new socket counts its drops from 0 (no handler runs now: this is the tick or start).
+  dropped_before_.fetch_add(dropped_.exchange(0, std::memory_order_relaxed), std::memory_order_relaxed);
+  (void)::dup2(fd, old_fd);
+  ::close(fd);
+  if (registered_) {
+    if (auto added = reactor_->add_in_tick(old_fd, *this); !added) {
+      registered_ = false;
+      return make_error(where() + ": " + added.error().message);
+    }
+  }
+  if (bcm >= 0) {
+    for (auto& writer : writers_) {
+      if (writer) writer->scheduled.store(false, std::memory_order_release);  // the next sample starts the task
+    }
+    (void)::dup2(bcm, bcm_fd_.load(std::memory_order_acquire));
+    ::close(bcm);
+  }
   return {};
+}
+
+bool SocketCanInterceptor::interface_flags(int& ifindex, bool& up) const noexcept {
+  ifreq request{};
+  std::snprintf(request.ifr_name, IFNAMSIZ, "%s", adaptor_.settings().interface.c_str());
+  const int fd = fd_.load(std::memory_order_acquire);
+  if (::ioctl(fd, SIOCGIFINDEX, &request) != 0) return false;
+  ifindex = request.ifr_ifindex;
+  if (::ioctl(fd, SIOCGIFFLAGS, &request) != 0) return false;
+  up = (request.ifr_flags & IFF_UP) != 0;
+  return true;
 }
 
 Result<void> SocketCanInterceptor::start() {
   if (active_) return {};
   if (fd_.load(std::memory_order_acquire) < 0) {
-    if (auto opened = open_socket(); !opened) return opened;
+    if (auto created = create_sockets(); !created) return created;
   } else {
     drain();  // frames queued while stopped are stale
   }
@@ -157,24 +290,55 @@ Result<void> SocketCanInterceptor::start() {
   ::clock_gettime(CLOCK_MONOTONIC, &mono);
   ::clock_gettime(CLOCK_REALTIME, &real);
   realtime_to_mono_ = Nanos{ns_of(mono) - ns_of(real)};
-  if (!by_can_id_.empty()) {
-    receiving_.store(true, std::memory_order_release);
-    if (auto added = reactor_->add(fd_.load(std::memory_order_acquire), *this); !added) {
-      receiving_.store(false, std::memory_order_release);
-      return make_error(adaptor_.name() + ": " + added.error().message);
+  const std::string& name = adaptor_.settings().interface;
+  if (bound_ifindex_ == 0) {
+    int ifindex = 0;
+    bool up = false;
+    if (interface_flags(ifindex, up)) {
+      // A wrong MTU and the like are the profile's mistake: the start fails.
+      if (auto attached = attach(ifindex); !attached) return attached;
+      bound_ifindex_ = ifindex;
+      had_interface_ = true;
+      was_up_ = up;
+      ifindex_.store(ifindex, std::memory_order_relaxed);
+      link_.store(static_cast<int>(up ? Link::up : Link::down), std::memory_order_relaxed);
+      if (!up) {
+        spdlog::error("{} is down: no frames until it is up (`ip link set {} up`)", where(), name);
+        emit(CanBusEventKind::interface_down, CanBusState::down, mono_now());
+      }
+    } else {
+      spdlog::error("{} does not exist; the component runs without it and picks it up when it appears "
+                    "(checked every {} ms), e.g. after `ip link add dev {} type vcan && ip link set {} up`",
+                    where(), CanReactor::kTickInterval.count(), name, name);
+      link_.store(static_cast<int>(Link::missing), std::memory_order_relaxed);
+      emit(CanBusEventKind::interface_missing, CanBusState::missing, mono_now());
     }
-    registered_ = true;
   }
+  receiving_.store(true, std::memory_order_release);
+  // Always watched: error frames arrive even where no data frame is received.
+  if (auto added = reactor_->add(fd_.load(std::memory_order_acquire), *this); !added) {
+    receiving_.store(false, std::memory_order_release);
+    return make_error(adaptor_.name() + ": " + added.error().message);
+  }
+  registered_ = true;
   for (auto& writer : writers_) {
     if (writer) writer->active.store(true, std::memory_order_release);
+  }
+  if (auto watched = reactor_->watch(*this); !watched) {
+    stop();
+    return make_error(adaptor_.name() + ": " + watched.error().message);
   }
   active_ = true;
   return {};
 }
 
 void SocketCanInterceptor::stop() noexcept {
+  reactor_->unwatch(*this);  // from here on no tick touches this interceptor
   for (auto& writer : writers_) {
     if (writer) writer->active.store(false, std::memory_order_release);
+  }
+  for (auto& writer : writers_) {
+    if (writer) writer->unschedule();
   }
   receiving_.store(false, std::memory_order_release);
   if (registered_) {
@@ -190,6 +354,60 @@ void SocketCanInterceptor::drain() noexcept {
   }
 }
 
+void SocketCanInterceptor::emit(CanBusEventKind kind, CanBusState state, MonoTime t_source, std::uint32_t error_class,
+                                const std::uint8_t* data) noexcept {
+  DataOutPort* port = adaptor_.bus_events();
+  if (port == nullptr) return;
+  CanBusEventSample event;
+  event.kind = static_cast<std::int32_t>(kind);
+  event.state = static_cast<std::int32_t>(state);
+  event.error_class = error_class;
+  if (data != nullptr) {
+    event.controller = data[1];
+    event.protocol = data[2];
+    event.tx_errors = data[6];
+    event.rx_errors = data[7];
+  }
+  (void)port->write(&event, sizeof event, t_source);
+  events_.fetch_add(1, std::memory_order_relaxed);
+}
+
+void SocketCanInterceptor::on_error_frame(const canfd_frame& frame, MonoTime t_source) noexcept {
+  const std::uint32_t error_class = frame.can_id & CAN_ERR_MASK;
+  error_frames_.fetch_add(1, std::memory_order_relaxed);
+  for (std::uint32_t bit = 0; bit < std::size(error_classes_); ++bit) {
+    if ((error_class & (1U << bit)) != 0) error_classes_[bit].fetch_add(1, std::memory_order_relaxed);
+  }
+  auto state = static_cast<CanBusState>(bus_state_.load(std::memory_order_relaxed));
+  CanBusEventKind kind = CanBusEventKind::error_frame;
+  const std::uint8_t controller = frame.data[1];
+  if ((error_class & CAN_ERR_CRTL) != 0) {
+    if ((controller & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE)) != 0) {
+      kind = CanBusEventKind::error_passive;
+      state = CanBusState::passive;
+    } else if ((controller & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING)) != 0) {
+      kind = CanBusEventKind::error_warning;
+      state = CanBusState::warning;
+    } else if ((controller & CAN_ERR_CRTL_ACTIVE) != 0) {
+      kind = CanBusEventKind::error_active;
+      state = CanBusState::active;
+    }
+  }
+  if ((error_class & CAN_ERR_RESTARTED) != 0) {
+    kind = CanBusEventKind::restarted;
+    state = CanBusState::active;
+  }
+  if ((error_class & CAN_ERR_BUSOFF) != 0) {
+    kind = CanBusEventKind::bus_off;
+    state = CanBusState::bus_off;
+  }
+  error_kinds_[static_cast<int>(kind)].fetch_add(1, std::memory_order_relaxed);
+  bus_state_.store(static_cast<std::int32_t>(state), std::memory_order_relaxed);
+  tx_errors_.store(frame.data[6], std::memory_order_relaxed);
+  rx_errors_.store(frame.data[7], std::memory_order_relaxed);
+  emit(kind, state, t_source, error_class, frame.data);
+}
+
 void SocketCanInterceptor::on_readable() noexcept {
   const int fd = fd_.load(std::memory_order_acquire);
   const auto& messages = adaptor_.messages();
@@ -197,7 +415,7 @@ void SocketCanInterceptor::on_readable() noexcept {
   for (int batch = 0; batch < 64; ++batch) {
     canfd_frame frame;
     iovec data{&frame, sizeof frame};
-    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timespec))];
+    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t))];
     msghdr header{};
     header.msg_iov = &data;
     header.msg_iovlen = 1;
@@ -205,12 +423,33 @@ void SocketCanInterceptor::on_readable() noexcept {
     header.msg_controllen = sizeof control;
     const ssize_t size = ::recvmsg(fd, &header, MSG_DONTWAIT);
     if (size < 0) {
-      if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) read_errors_.fetch_add(1, std::memory_order_relaxed);
+      if (errno == EAGAIN || errno == EWOULDBLOCK) return;
+      if (errno == EINTR) continue;
+      // ENODEV: the interface was deleted (the socket is unbound now); ENETDOWN: it was set
+      // down. The tick reports both and re-attaches.
+      if (errno == ENODEV) lost_.store(true, std::memory_order_release);
+      read_errors_.fetch_add(1, std::memory_order_relaxed);
       return;
     }
     if (!receiving_.load(std::memory_order_acquire)) continue;
     if (size != static_cast<ssize_t>(CAN_MTU) && size != static_cast<ssize_t>(CANFD_MTU)) {
       read_errors_.fetch_add(1, std::memory_order_relaxed);
+      continue;
+    }
+    MonoTime t_source{};
+    for (cmsghdr* c = CMSG_FIRSTHDR(&header); c != nullptr; c = CMSG_NXTHDR(&header, c)) {
+      if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_TIMESTAMPNS) {
+        timespec stamp;
+        std::memcpy(&stamp, CMSG_DATA(c), sizeof stamp);
+        t_source = MonoTime{ns_of(stamp)} + realtime_to_mono_;
+      } else if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL) {
+        std::uint32_t dropped;
+        std::memcpy(&dropped, CMSG_DATA(c), sizeof dropped);
+        dropped_.store(dropped, std::memory_order_relaxed);
+      }
+    }
+    if ((frame.can_id & CAN_ERR_FLAG) != 0) {
+      on_error_frame(frame, t_source);
       continue;
     }
     const std::uint32_t key = frame_key(frame.can_id);
@@ -226,15 +465,84 @@ void SocketCanInterceptor::on_readable() noexcept {
       counters.bad_length.fetch_add(1, std::memory_order_relaxed);
       continue;
     }
-    MonoTime t_source{};
-    for (cmsghdr* c = CMSG_FIRSTHDR(&header); c != nullptr; c = CMSG_NXTHDR(&header, c)) {
-      if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_TIMESTAMPNS) {
-        timespec stamp;
-        std::memcpy(&stamp, CMSG_DATA(c), sizeof stamp);
-        t_source = MonoTime{ns_of(stamp)} + realtime_to_mono_;
+    (void)message.out->write(frame.data, frame.len, t_source);
+  }
+}
+
+void SocketCanInterceptor::on_tick() noexcept {
+  try {
+    const std::string& name = adaptor_.settings().interface;
+    const auto retry_ms = CanReactor::kTickInterval.count();
+    int ifindex = 0;
+    bool up = false;
+    const bool exists = interface_flags(ifindex, up);
+    const bool lost = lost_.exchange(false, std::memory_order_acq_rel);
+    if (bound_ifindex_ != 0 && (!exists || ifindex != bound_ifindex_ || lost)) {
+      bound_ifindex_ = 0;
+      ifindex_.store(0, std::memory_order_relaxed);
+      link_.store(static_cast<int>(Link::missing), std::memory_order_relaxed);
+      losses_.fetch_add(1, std::memory_order_release);  // after the state it counts
+      last_attach_error_.clear();
+      spdlog::error("{} went away (deleted or re-created): no frames are received or sent until it is back; "
+                    "retrying every {} ms",
+                    where(), retry_ms);
+      emit(CanBusEventKind::interface_missing, CanBusState::missing, mono_now());
+    }
+    if (bound_ifindex_ == 0 && exists) {
+      if (auto attached = attach(ifindex); !attached) {
+        attach_failures_.fetch_add(1, std::memory_order_relaxed);
+        if (attached.error().message != last_attach_error_) {
+          last_attach_error_ = attached.error().message;
+          spdlog::error("{} (retrying every {} ms)", last_attach_error_, retry_ms);
+        }
+      } else {
+        // The periodic messages go on with their last frame; before the counters below, so
+        // that whoever sees the return sees the tasks running.
+        for (auto& writer : writers_) {
+          if (writer) writer->reschedule();
+        }
+        bound_ifindex_ = ifindex;
+        ifindex_.store(ifindex, std::memory_order_relaxed);
+        was_up_ = up;
+        link_.store(static_cast<int>(up ? Link::up : Link::down), std::memory_order_relaxed);
+        bus_state_.store(static_cast<std::int32_t>(CanBusState::active), std::memory_order_relaxed);
+        if (had_interface_) recoveries_.fetch_add(1, std::memory_order_release);  // after everything above
+        had_interface_ = true;
+        last_attach_error_.clear();
+        spdlog::info("{} is back (ifindex {}, {}): sockets re-created and re-bound, filters set", where(), ifindex,
+                     up ? "up" : "down");
+        emit(CanBusEventKind::interface_back, up ? CanBusState::active : CanBusState::down, mono_now());
       }
     }
-    (void)message.out->write(frame.data, frame.len, t_source);
+    if (bound_ifindex_ != 0 && up != was_up_) {
+      was_up_ = up;
+      link_.store(static_cast<int>(up ? Link::up : Link::down), std::memory_order_relaxed);
+      if (up) {
+        came_up_.fetch_add(1, std::memory_order_release);
+        spdlog::info("{} is up again", where());
+        emit(CanBusEventKind::interface_up, CanBusState::active, mono_now());
+      } else {
+        went_down_.fetch_add(1, std::memory_order_release);
+        spdlog::error("{} is down: no frames until it is up again (`ip link set {} up`)", where(), name);
+        emit(CanBusEventKind::interface_down, CanBusState::down, mono_now());
+      }
+    }
+    const std::int32_t bus_state = bus_state_.load(std::memory_order_relaxed);
+    if (bus_state != logged_bus_state_) {
+      logged_bus_state_ = bus_state;
+      if (bus_state == static_cast<std::int32_t>(CanBusState::bus_off)) {
+        spdlog::error("{}: bus-off: the controller sends and receives nothing until it restarts "
+                      "(e.g. `ip link set {} type can restart-ms 100`)",
+                      where(), name);
+      } else if (bus_state == static_cast<std::int32_t>(CanBusState::active)) {
+        spdlog::info("{}: bus state error-active", where());
+      } else {
+        spdlog::warn("{}: bus state {} (tx errors {}, rx errors {})", where(), kBusStateNames[bus_state],
+                     tx_errors_.load(std::memory_order_relaxed), rx_errors_.load(std::memory_order_relaxed));
+      }
+    }
+  } catch (...) {
+    // No memory for a log line: the next tick tries again.
   }
 }
 
@@ -259,17 +567,46 @@ void SocketCanInterceptor::describe(nlohmann::json& out) const {
       p["received"] = counters.received.load(std::memory_order_relaxed);
       p["bad_length"] = counters.bad_length.load(std::memory_order_relaxed);
     } else {
+      p["cycle_ms"] = message.cycle_ms;
+      if (message.cycle_ms != 0) p["scheduled"] = writers_[i]->scheduled.load(std::memory_order_relaxed);
       p["sent"] = counters.sent.load(std::memory_order_relaxed);
       p["send_failed"] = counters.send_failed.load(std::memory_order_relaxed);
       p["bad_length"] = counters.bad_length.load(std::memory_order_relaxed);
     }
     ports.push_back(std::move(p));
   }
+  nlohmann::json kinds = nlohmann::json::object();
+  for (std::size_t i = 0; i < std::size(error_kinds_); ++i) {
+    kinds[kErrorKindNames[i]] = error_kinds_[i].load(std::memory_order_relaxed);
+  }
+  nlohmann::json classes = nlohmann::json::object();
+  for (std::size_t i = 0; i < std::size(error_classes_); ++i) {
+    classes[kErrorClassNames[i]] = error_classes_[i].load(std::memory_order_relaxed);
+  }
   const SocketCanSettings& settings = adaptor_.settings();
+  const DataOutPort* events = adaptor_.bus_events();
   out["socketcan"] = {{"interface", settings.interface},
                       {"fd", settings.fd},
+                      {"link", kLinkNames[link_.load(std::memory_order_relaxed)]},
+                      {"ifindex", ifindex_.load(std::memory_order_relaxed)},
+                      {"losses", losses_.load(std::memory_order_acquire)},
+                      {"recoveries", recoveries_.load(std::memory_order_acquire)},
+                      {"went_down", went_down_.load(std::memory_order_acquire)},
+                      {"came_up", came_up_.load(std::memory_order_acquire)},
+                      {"attach_failures", attach_failures_.load(std::memory_order_relaxed)},
+                      {"bus",
+                       {{"state", kBusStateNames[bus_state_.load(std::memory_order_relaxed)]},
+                        {"error_frames", error_frames_.load(std::memory_order_relaxed)},
+                        {"kinds", std::move(kinds)},
+                        {"classes", std::move(classes)},
+                        {"tx_errors", tx_errors_.load(std::memory_order_relaxed)},
+                        {"rx_errors", rx_errors_.load(std::memory_order_relaxed)}}},
+                      {"bus_events", events != nullptr ? nlohmann::json(events->name()) : nlohmann::json()},
+                      {"events", events_.load(std::memory_order_relaxed)},
                       {"unknown_id", unknown_id_.load(std::memory_order_relaxed)},
                       {"read_errors", read_errors_.load(std::memory_order_relaxed)},
+                      {"kernel_dropped", dropped_before_.load(std::memory_order_relaxed) +
+                                             dropped_.load(std::memory_order_relaxed)},
                       {"ports", std::move(ports)}};
 }
 

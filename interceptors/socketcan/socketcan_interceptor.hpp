@@ -1,6 +1,8 @@
 // The native side of a SocketCAN proxy: one CAN_RAW socket on the component's interface,
-// whose kernel filters pass exactly the ids of the component's `output` ports, watched by the
-// model's CanReactor; `input` ports write frames on it from their sinks.
+// whose kernel filters pass exactly the ids of the component's `output` ports (and every
+// error frame, CAN_RAW_ERR_FILTER), watched by the model's CanReactor; `input` ports write
+// frames on it from their sinks. Input ports with a cycle time hand their frames to a
+// CAN_BCM socket instead, whose kernel timer sends the last one every cycle.
 //
 // Threads and buffers (forwarding path):
 //  - bus -> polyport: on_readable runs on the reactor thread; recvmsg copies each frame and
@@ -10,15 +12,33 @@
 //    DataOutPort::write.
 //  - polyport -> bus: an `input` port's sink runs on the upstream writer's thread, builds a
 //    can_frame / canfd_frame on its stack and write()s it without blocking (EAGAIN/ENOBUFS
-//    are counted as send_failed).
-// start/stop/describe run on the control thread. The socket is opened by the first start()
-// and closed by the destructor, so a sink that races with stop() never writes to a
-// descriptor number that was reused; stop() only detaches (atomics) and leaves the reactor.
+//    are counted as send_failed). A periodic port's sink writes a TX_SETUP for its id on
+//    the BCM socket instead: the first (and the first after a loss of the interface) with
+//    SETTIMER|STARTTIMER|TX_ANNOUNCE at ival2 = the cycle, later ones without flags, which
+//    replace the frame's data in place without touching the timer. The sink also keeps the
+//    frame (atomics under a sequence lock), so that the tick can start the task again on a
+//    re-created BCM socket.
+//  - error frames: decoded on the reactor thread into atomics (bus state, counters per
+//    kind and class) and written as a CanBusEvent to the optional event port.
+//  - supervision: on_tick runs on the reactor thread every CanReactor::kTickInterval. It
+//    asks the kernel for the interface's index and flags; when the interface it was bound
+//    to is gone (deleted, or re-added under a new index, or a read saw ENODEV) or was missing
+//    at start, it re-creates both sockets with their options, binds / connects them and
+//    dup2()s them over the old descriptors, so the descriptor numbers the sinks use never
+//    change; it logs each loss, return, down / up and bus-state change and writes their
+//    events. It allocates and logs; it is not the forwarding path.
+// start/stop/describe run on the control thread. The sockets are created by the first
+// start() (unbound while the interface is missing) and closed by the destructor, so a sink
+// that races with stop() never writes to a descriptor number that was reused; stop() only
+// detaches (atomics), deletes the BCM tasks and leaves the reactor.
 #pragma once
+
+#include <linux/can.h>
 
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -30,7 +50,7 @@
 
 namespace polyport::socketcan {
 
-class SocketCanInterceptor final : public Interceptor, private ReadableHandler {
+class SocketCanInterceptor final : public Interceptor, private ReadableHandler, private Supervised {
  public:
   SocketCanInterceptor(SocketCanAdaptor& adaptor, std::shared_ptr<CanReactor> reactor);
   ~SocketCanInterceptor() override;
@@ -50,24 +70,56 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler {
     std::atomic<std::uint64_t> send_failed{0};
   };
 
-  // One `input` port: the port's sink sends each sample as a frame.
+  // One `input` port: the port's sink sends each sample as a frame, or hands it to the
+  // broadcast manager when the message is periodic.
   class FrameWriter final : public SampleSink {
    public:
-    FrameWriter(const SocketCanAdaptor::Message& message, const std::atomic<int>& fd, Counters& counters)
-        : message_(message), fd_(fd), counters_(counters) {}
+    FrameWriter(const SocketCanAdaptor::Message& message, const std::atomic<int>& fd, const std::atomic<int>& bcm_fd,
+                Counters& counters)
+        : message_(message), fd_(fd), bcm_fd_(bcm_fd), counters_(counters) {}
     Status on_sample(const std::byte* data, const SampleMeta& meta) noexcept override;
+    // Deletes the BCM task (control thread, after `active` went false).
+    void unschedule() noexcept;
+    // Starts the BCM task again with the last frame sent, if there was one (the tick, after
+    // the interface came back and the BCM socket was re-created).
+    void reschedule() noexcept;
 
     std::atomic<bool> active{false};
+    // Periodic: the BCM task exists with its timer running.
+    std::atomic<bool> scheduled{false};
 
    private:
+    // Writes the BCM TX_SETUP of `frame`; true when the kernel took it.
+    bool setup(const canfd_frame& frame, std::size_t frame_size, bool first) noexcept;
+
+    // Periodic: the last frame handed to the broadcast manager, for reschedule(), as a
+    // sequence lock (the sink writes, the tick reads; odd `sequence_`: being written; 0: none).
+    static constexpr std::size_t kFrameWords = sizeof(canfd_frame) / sizeof(std::uint64_t);
+    static_assert(sizeof(canfd_frame) % sizeof(std::uint64_t) == 0);
+    std::atomic<std::uint32_t> sequence_{0};
+    std::atomic<std::uint64_t> last_[kFrameWords]{};
+
     const SocketCanAdaptor::Message& message_;
     const std::atomic<int>& fd_;
+    const std::atomic<int>& bcm_fd_;
     Counters& counters_;
   };
 
+  // What the interface is, as the last tick saw it.
+  enum class Link : int { up, down, missing };
+
   void on_readable() noexcept override;
-  Result<void> open_socket();
+  void on_tick() noexcept override;
+  void on_error_frame(const canfd_frame& frame, MonoTime t_source) noexcept;
+  void emit(CanBusEventKind kind, CanBusState state, MonoTime t_source, std::uint32_t error_class = 0,
+            const std::uint8_t* data = nullptr) noexcept;
+  // Creates the sockets, unbound (first start).
+  Result<void> create_sockets();
+  // New sockets with every option, bound / connected to `ifindex`, dup2()ed over the old.
+  Result<void> attach(int ifindex);
+  bool interface_flags(int& ifindex, bool& up) const noexcept;
   void drain() noexcept;
+  std::string where() const;
 
   SocketCanAdaptor& adaptor_;  // owned by the same Proxy; outlives start/stop
   std::shared_ptr<CanReactor> reactor_;
@@ -76,10 +128,38 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler {
   // (can_id, message index) of the output ports, sorted: the receive path's lookup.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> by_can_id_;
   std::atomic<int> fd_{-1};
+  std::atomic<int> bcm_fd_{-1};  // -1 when no port is periodic
+  bool periodic_ = false;
   std::atomic<bool> receiving_{false};
+  // Supervision (written by the tick or by start before watch(); read by describe).
+  int bound_ifindex_ = 0;           // 0: not bound (missing)
+  bool was_up_ = true;
+  bool had_interface_ = false;      // a return counts as a recovery only after a loss / a missing start
+  std::string last_attach_error_;   // logged once until it changes
+  std::int32_t logged_bus_state_ = 0;
+  std::atomic<int> link_{static_cast<int>(Link::missing)};
+  std::atomic<int> ifindex_{0};
+  std::atomic<bool> lost_{false};   // a read saw ENODEV
+  std::atomic<std::uint64_t> losses_{0};
+  std::atomic<std::uint64_t> recoveries_{0};
+  std::atomic<std::uint64_t> went_down_{0};
+  std::atomic<std::uint64_t> came_up_{0};
+  std::atomic<std::uint64_t> attach_failures_{0};
+  // Error frames (reactor thread).
+  std::atomic<std::int32_t> bus_state_{0};  // CanBusState
+  std::atomic<std::uint64_t> error_frames_{0};
+  std::atomic<std::uint64_t> error_kinds_[6]{};   // by CanBusEventKind error_frame .. error_active
+  std::atomic<std::uint64_t> error_classes_[10]{};  // by class bit, CAN_ERR_TX_TIMEOUT .. CAN_ERR_CNT
+  std::atomic<std::uint32_t> tx_errors_{0};
+  std::atomic<std::uint32_t> rx_errors_{0};
+  std::atomic<std::uint64_t> events_{0};
   // Frames that passed the kernel filter but match no port: stays 0 while the filters work.
   std::atomic<std::uint64_t> unknown_id_{0};
   std::atomic<std::uint64_t> read_errors_{0};
+  // SO_RXQ_OVFL: frames the kernel dropped on a full receive buffer, on the current socket
+  // (reactor thread) and on the sockets before it (added up by attach()).
+  std::atomic<std::uint32_t> dropped_{0};
+  std::atomic<std::uint64_t> dropped_before_{0};
   // CLOCK_MONOTONIC - CLOCK_REALTIME, measured at start: SO_TIMESTAMPNS stamps frames with
   // CLOCK_REALTIME, polyport's t_source is CLOCK_MONOTONIC. A wall-clock step after start
   // shifts the converted stamps by the step until the next start.

@@ -104,14 +104,21 @@ class CanPeer {
   std::string error_;
 };
 
-// Runs `cansend interface frame` to its end: empty on success, else what went wrong.
-inline std::string cansend(const std::string& interface, const std::string& frame) {
-  CanPeer peer({"cansend", interface, frame});
+// Runs a command to its end: empty on success, else what went wrong.
+inline std::string run_command(std::vector<std::string> args) {
+  std::string line;
+  for (const auto& arg : args) line += (line.empty() ? "" : " ") + arg;
+  CanPeer peer(std::move(args));
   if (!peer.error().empty()) return peer.error();
   const auto status = peer.finish(Clock::now() + std::chrono::seconds(5));
-  if (!status) return "cansend " + interface + " " + frame + " did not finish within 5 s";
-  if (*status != 0) return "cansend " + interface + " " + frame + " failed: " + peer.output();
+  if (!status) return line + " did not finish within 5 s";
+  if (*status != 0) return line + " failed: " + peer.output();
   return {};
+}
+
+// Runs `cansend interface frame` to its end: empty on success, else what went wrong.
+inline std::string cansend(const std::string& interface, const std::string& frame) {
+  return run_command({"cansend", interface, frame});
 }
 
 }  // namespace polyport::test

@@ -162,15 +162,6 @@ TEST_F(SocketCanEngineTest, PassthroughSendsTheFrameOnAnotherInterface) {
   EXPECT_EQ(port_counters("bus1", "engine")["can_id"], "0x100");
 }
 
-TEST_F(SocketCanEngineTest, AMissingInterfaceFailsTheStartAndIsNamed) {
-  ASSERT_TRUE(build("missing_interface_app.xml")) << problems();
-  std::vector<std::string> warnings;
-  auto started = engine.start(warnings);
-  ASSERT_FALSE(started);
-  EXPECT_NE(started.error().message.find("CAN interface 'vcan7' does not exist"), std::string::npos)
-      << started.error().message;
-}
-
 TEST_F(SocketCanEngineTest, FdOnAClassicInterfaceFailsTheStart) {
   ASSERT_TRUE(build("fd_on_classic_app.xml")) << problems();
   std::vector<std::string> warnings;
