@@ -1,5 +1,8 @@
 #include "socketcan_adaptor.hpp"
 
+#include <linux/can.h>
+#include <linux/can/error.h>
+
 #include <algorithm>
 #include <cstddef>
 #include <cstdio>
@@ -36,7 +39,56 @@ std::unique_ptr<SocketCanAdaptor> SocketCanAdaptor::create(const Subcomponent& s
     ok = adaptor->add_message(spec, types, diagnostics) && ok;
   }
   if (!ok) return nullptr;
+  for (std::uint32_t i = 0; i < adaptor->messages_.size(); ++i) {
+    if (adaptor->messages_[i].out != nullptr) adaptor->by_can_id_.emplace_back(adaptor->messages_[i].can_id, i);
+  }
+  std::sort(adaptor->by_can_id_.begin(), adaptor->by_can_id_.end());
   return adaptor;
+}
+
+SocketCanAdaptor::Received SocketCanAdaptor::receive(std::uint32_t can_id, const std::uint8_t* data,
+                                                     std::uint8_t length, MonoTime t_source) const noexcept {
+  // The id as the table spells it: 11 or 29 bits, CAN_EFF_FLAG for 29-bit ids.
+  const std::uint32_t key =
+      (can_id & CAN_EFF_FLAG) != 0 ? (can_id & (CAN_EFF_FLAG | CAN_EFF_MASK)) : (can_id & CAN_SFF_MASK);
+  const auto found = std::lower_bound(by_can_id_.begin(), by_can_id_.end(), std::pair<std::uint32_t, std::uint32_t>{key, 0});
+  if (found == by_can_id_.end() || found->first != key) return {Arrival::unknown_id, 0};
+  const Message& message = messages_[found->second];
+  if (length != message.dbc->length) return {Arrival::bad_length, found->second};
+  (void)message.out->write(data, length, t_source);
+  return {Arrival::delivered, found->second};
+}
+
+ErrorFrameMeaning classify_error_frame(std::uint32_t error_class, const std::uint8_t* data, CanBusState state) noexcept {
+  ErrorFrameMeaning meaning{CanBusEventKind::error_frame, state};
+  const std::uint8_t controller = data[1];
+  if ((error_class & CAN_ERR_CRTL) != 0) {
+    if ((controller & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE)) != 0) {
+      meaning = {CanBusEventKind::error_passive, CanBusState::passive};
+    } else if ((controller & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING)) != 0) {
+      meaning = {CanBusEventKind::error_warning, CanBusState::warning};
+    } else if ((controller & CAN_ERR_CRTL_ACTIVE) != 0) {
+      meaning = {CanBusEventKind::error_active, CanBusState::active};
+    }
+  }
+  if ((error_class & CAN_ERR_RESTARTED) != 0) meaning = {CanBusEventKind::restarted, CanBusState::active};
+  if ((error_class & CAN_ERR_BUSOFF) != 0) meaning = {CanBusEventKind::bus_off, CanBusState::bus_off};
+  return meaning;
+}
+
+CanBusEventSample bus_event(CanBusEventKind kind, CanBusState state, std::uint32_t error_class,
+                            const std::uint8_t* data) noexcept {
+  CanBusEventSample event;
+  event.kind = static_cast<std::int32_t>(kind);
+  event.state = static_cast<std::int32_t>(state);
+  event.error_class = error_class;
+  if (data != nullptr) {
+    event.controller = data[1];
+    event.protocol = data[2];
+    event.tx_errors = data[6];
+    event.rx_errors = data[7];
+  }
+  return event;
 }
 
 bool SocketCanAdaptor::add_message(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics) {

@@ -18,8 +18,10 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "polyport/base/clock.hpp"
 #include "polyport/base/diagnostics.hpp"
 #include "polyport/codecs/codec.hpp"
 #include "polyport/profile/profile.hpp"
@@ -51,6 +53,17 @@ enum class CanBusEventKind : std::int32_t {
 };
 enum class CanBusState : std::int32_t { active, warning, passive, bus_off, down, missing };
 
+// What an error frame says (linux/can/error.h): its event and the bus state after it. `data`
+// is the frame's 8 data bytes; `state` the state before, kept by a frame that changes none.
+struct ErrorFrameMeaning {
+  CanBusEventKind kind = CanBusEventKind::error_frame;
+  CanBusState state = CanBusState::active;
+};
+ErrorFrameMeaning classify_error_frame(std::uint32_t error_class, const std::uint8_t* data, CanBusState state) noexcept;
+// The event of an error frame or of the interface (`data` null: no frame) as its port carries it.
+CanBusEventSample bus_event(CanBusEventKind kind, CanBusState state, std::uint32_t error_class,
+                            const std::uint8_t* data) noexcept;
+
 class SocketCanAdaptor final : public Component {
  public:
   // One port's message.
@@ -77,6 +90,22 @@ class SocketCanAdaptor final : public Component {
   // The polyport::CanBusEvent port; null when the profile has none.
   DataOutPort* bus_events() const noexcept { return bus_events_; }
 
+  // What became of a data frame from the bus (error frames go to classify_error_frame).
+  enum class Arrival : std::uint8_t { delivered, unknown_id, bad_length };
+  struct Received {
+    Arrival arrival = Arrival::unknown_id;
+    std::uint32_t message = 0;  // its index in messages(), unless unknown_id
+  };
+  // Finds the output port of `can_id` (11 or 29 bits, CAN_EFF_FLAG for 29; the RTR and error
+  // bits are ignored), checks the frame's length against its DBC message and writes the data
+  // bytes into the port. The receive thread; no allocation, no lock. The live decode path:
+  // tests/fuzz/fuzz_can_receive.cpp.
+  Received receive(std::uint32_t can_id, const std::uint8_t* data, std::uint8_t length,
+                   MonoTime t_source) const noexcept;
+  // The output ports' (can_id, index in messages()), sorted by id: what the kernel's
+  // filters pass.
+  const std::vector<std::pair<std::uint32_t, std::uint32_t>>& received_ids() const noexcept { return by_can_id_; }
+
  private:
   bool add_message(const PortSpec& spec, const TypeRegistry& types, Diagnostics& diagnostics);
   bool add_bus_events(const PortSpec& spec, const Type& type, Diagnostics& diagnostics);
@@ -85,6 +114,7 @@ class SocketCanAdaptor final : public Component {
   std::vector<Message> messages_;
   DataOutPort* bus_events_ = nullptr;
   std::vector<std::unique_ptr<Codec>> codecs_;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> by_can_id_;
 };
 
 }  // namespace polyport::socketcan

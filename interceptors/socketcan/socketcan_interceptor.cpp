@@ -38,12 +38,6 @@ std::string hex_id(std::uint32_t can_id) {
   return text;
 }
 
-// The id of a received frame as the ports' table spells it: 11 or 29 bits, CAN_EFF_FLAG
-// for 29-bit ids, no RTR or error flag.
-std::uint32_t frame_key(canid_t id) noexcept {
-  return (id & CAN_EFF_FLAG) != 0 ? (id & (CAN_EFF_FLAG | CAN_EFF_MASK)) : (id & CAN_SFF_MASK);
-}
-
 std::int64_t ns_of(const timespec& t) noexcept {
   return static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
 }
@@ -154,7 +148,6 @@ SocketCanInterceptor::SocketCanInterceptor(SocketCanAdaptor& adaptor, std::share
   for (std::uint32_t i = 0; i < messages.size(); ++i) {
     const SocketCanAdaptor::Message& message = messages[i];
     if (message.out != nullptr) {
-      by_can_id_.emplace_back(message.can_id, i);
       writers_.push_back(nullptr);
     } else {
       writers_.push_back(std::make_unique<FrameWriter>(message, fd_, bcm_fd_, counters_[i]));
@@ -162,7 +155,6 @@ SocketCanInterceptor::SocketCanInterceptor(SocketCanAdaptor& adaptor, std::share
       periodic_ = periodic_ || message.cycle_ms != 0;
     }
   }
-  std::sort(by_can_id_.begin(), by_can_id_.end());
 }
 
 SocketCanInterceptor::~SocketCanInterceptor() {
@@ -218,7 +210,7 @@ Result<void> SocketCanInterceptor::attach(int ifindex) {
   // 29-bit one) and the RTR flag (remote requests carry no data) all in the mask. No filter
   // at all (a component with input ports only) receives no data frame.
   std::vector<can_filter> filters;
-  for (const auto& [can_id, index] : by_can_id_) {
+  for (const auto& [can_id, index] : adaptor_.received_ids()) {
     const bool extended = (can_id & CAN_EFF_FLAG) != 0;
     filters.push_back(can_filter{can_id, (extended ? CAN_EFF_MASK : CAN_SFF_MASK) | CAN_EFF_FLAG | CAN_RTR_FLAG});
   }
@@ -358,16 +350,7 @@ void SocketCanInterceptor::emit(CanBusEventKind kind, CanBusState state, MonoTim
                                 const std::uint8_t* data) noexcept {
   DataOutPort* port = adaptor_.bus_events();
   if (port == nullptr) return;
-  CanBusEventSample event;
-  event.kind = static_cast<std::int32_t>(kind);
-  event.state = static_cast<std::int32_t>(state);
-  event.error_class = error_class;
-  if (data != nullptr) {
-    event.controller = data[1];
-    event.protocol = data[2];
-    event.tx_errors = data[6];
-    event.rx_errors = data[7];
-  }
+  const CanBusEventSample event = bus_event(kind, state, error_class, data);
   (void)port->write(&event, sizeof event, t_source);
   events_.fetch_add(1, std::memory_order_relaxed);
 }
@@ -378,29 +361,8 @@ void SocketCanInterceptor::on_error_frame(const canfd_frame& frame, MonoTime t_s
   for (std::uint32_t bit = 0; bit < std::size(error_classes_); ++bit) {
     if ((error_class & (1U << bit)) != 0) error_classes_[bit].fetch_add(1, std::memory_order_relaxed);
   }
-  auto state = static_cast<CanBusState>(bus_state_.load(std::memory_order_relaxed));
-  CanBusEventKind kind = CanBusEventKind::error_frame;
-  const std::uint8_t controller = frame.data[1];
-  if ((error_class & CAN_ERR_CRTL) != 0) {
-    if ((controller & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE)) != 0) {
-      kind = CanBusEventKind::error_passive;
-      state = CanBusState::passive;
-    } else if ((controller & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING)) != 0) {
-      kind = CanBusEventKind::error_warning;
-      state = CanBusState::warning;
-    } else if ((controller & CAN_ERR_CRTL_ACTIVE) != 0) {
-      kind = CanBusEventKind::error_active;
-      state = CanBusState::active;
-    }
-  }
-  if ((error_class & CAN_ERR_RESTARTED) != 0) {
-    kind = CanBusEventKind::restarted;
-    state = CanBusState::active;
-  }
-  if ((error_class & CAN_ERR_BUSOFF) != 0) {
-    kind = CanBusEventKind::bus_off;
-    state = CanBusState::bus_off;
-  }
+  const auto [kind, state] =
+      classify_error_frame(error_class, frame.data, static_cast<CanBusState>(bus_state_.load(std::memory_order_relaxed)));
   error_kinds_[static_cast<int>(kind)].fetch_add(1, std::memory_order_relaxed);
   bus_state_.store(static_cast<std::int32_t>(state), std::memory_order_relaxed);
   tx_errors_.store(frame.data[6], std::memory_order_relaxed);
@@ -410,19 +372,28 @@ void SocketCanInterceptor::on_error_frame(const canfd_frame& frame, MonoTime t_s
 
 void SocketCanInterceptor::on_readable() noexcept {
   const int fd = fd_.load(std::memory_order_acquire);
-  const auto& messages = adaptor_.messages();
-  // A bounded batch per wake-up, so one busy interface cannot starve the others.
-  for (int batch = 0; batch < 64; ++batch) {
-    canfd_frame frame;
-    iovec data{&frame, sizeof frame};
-    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t))];
-    msghdr header{};
-    header.msg_iov = &data;
-    header.msg_iovlen = 1;
-    header.msg_control = control;
-    header.msg_controllen = sizeof control;
-    const ssize_t size = ::recvmsg(fd, &header, MSG_DONTWAIT);
-    if (size < 0) {
+  // Up to kBatch frames per system call (recvmmsg), all on the stack; a call that returns
+  // fewer has emptied the queue, so no further call is made to learn that (the epoll wait is
+  // level-triggered: a frame that arrives meanwhile wakes it again). At most kCalls calls per
+  // wake-up, so one busy interface cannot starve the others.
+  constexpr unsigned kBatch = 16;
+  constexpr int kCalls = 4;
+  constexpr std::size_t kControl = CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t));
+  canfd_frame frames[kBatch];
+  iovec data[kBatch];
+  alignas(cmsghdr) char control[kBatch][kControl];
+  mmsghdr headers[kBatch];
+  for (int call = 0; call < kCalls; ++call) {
+    for (unsigned i = 0; i < kBatch; ++i) {
+      data[i] = iovec{&frames[i], sizeof frames[i]};
+      headers[i] = mmsghdr{};
+      headers[i].msg_hdr.msg_iov = &data[i];
+      headers[i].msg_hdr.msg_iovlen = 1;
+      headers[i].msg_hdr.msg_control = control[i];
+      headers[i].msg_hdr.msg_controllen = kControl;
+    }
+    const int count = ::recvmmsg(fd, headers, kBatch, MSG_DONTWAIT, nullptr);
+    if (count < 0) {
       if (errno == EAGAIN || errno == EWOULDBLOCK) return;
       if (errno == EINTR) continue;
       // ENODEV: the interface was deleted (the socket is unbound now); ENETDOWN: it was set
@@ -431,42 +402,44 @@ void SocketCanInterceptor::on_readable() noexcept {
       read_errors_.fetch_add(1, std::memory_order_relaxed);
       return;
     }
-    if (!receiving_.load(std::memory_order_acquire)) continue;
-    if (size != static_cast<ssize_t>(CAN_MTU) && size != static_cast<ssize_t>(CANFD_MTU)) {
-      read_errors_.fetch_add(1, std::memory_order_relaxed);
-      continue;
+    if (receiving_.load(std::memory_order_acquire)) {
+      for (int i = 0; i < count; ++i) on_frame(frames[i], headers[i]);
     }
-    MonoTime t_source{};
-    for (cmsghdr* c = CMSG_FIRSTHDR(&header); c != nullptr; c = CMSG_NXTHDR(&header, c)) {
-      if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_TIMESTAMPNS) {
-        timespec stamp;
-        std::memcpy(&stamp, CMSG_DATA(c), sizeof stamp);
-        t_source = MonoTime{ns_of(stamp)} + realtime_to_mono_;
-      } else if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL) {
-        std::uint32_t dropped;
-        std::memcpy(&dropped, CMSG_DATA(c), sizeof dropped);
-        dropped_.store(dropped, std::memory_order_relaxed);
-      }
-    }
-    if ((frame.can_id & CAN_ERR_FLAG) != 0) {
-      on_error_frame(frame, t_source);
-      continue;
-    }
-    const std::uint32_t key = frame_key(frame.can_id);
-    const auto found = std::lower_bound(by_can_id_.begin(), by_can_id_.end(), std::pair<std::uint32_t, std::uint32_t>{key, 0});
-    if (found == by_can_id_.end() || found->first != key) {
-      unknown_id_.fetch_add(1, std::memory_order_relaxed);
-      continue;
-    }
-    const SocketCanAdaptor::Message& message = messages[found->second];
-    Counters& counters = counters_[found->second];
-    counters.received.fetch_add(1, std::memory_order_relaxed);
-    if (frame.len != message.dbc->length) {
-      counters.bad_length.fetch_add(1, std::memory_order_relaxed);
-      continue;
-    }
-    (void)message.out->write(frame.data, frame.len, t_source);
+    if (static_cast<unsigned>(count) < kBatch) return;
   }
+}
+
+void SocketCanInterceptor::on_frame(const canfd_frame& frame, mmsghdr& received) noexcept {
+  const unsigned size = received.msg_len;
+  if (size != CAN_MTU && size != CANFD_MTU) {
+    read_errors_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  msghdr& header = received.msg_hdr;
+  MonoTime t_source{};
+  for (cmsghdr* c = CMSG_FIRSTHDR(&header); c != nullptr; c = CMSG_NXTHDR(&header, c)) {
+    if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_TIMESTAMPNS) {
+      timespec stamp;
+      std::memcpy(&stamp, CMSG_DATA(c), sizeof stamp);
+      t_source = MonoTime{ns_of(stamp)} + realtime_to_mono_;
+    } else if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL) {
+      std::uint32_t dropped;
+      std::memcpy(&dropped, CMSG_DATA(c), sizeof dropped);
+      dropped_.store(dropped, std::memory_order_relaxed);
+    }
+  }
+  if ((frame.can_id & CAN_ERR_FLAG) != 0) {
+    on_error_frame(frame, t_source);
+    return;
+  }
+  const SocketCanAdaptor::Received got = adaptor_.receive(frame.can_id, frame.data, frame.len, t_source);
+  if (got.arrival == SocketCanAdaptor::Arrival::unknown_id) {
+    unknown_id_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  Counters& counters = counters_[got.message];
+  counters.received.fetch_add(1, std::memory_order_relaxed);
+  if (got.arrival == SocketCanAdaptor::Arrival::bad_length) counters.bad_length.fetch_add(1, std::memory_order_relaxed);
 }
 
 void SocketCanInterceptor::on_tick() noexcept {

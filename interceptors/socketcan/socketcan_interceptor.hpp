@@ -5,11 +5,11 @@
 // CAN_BCM socket instead, whose kernel timer sends the last one every cycle.
 //
 // Threads and buffers (forwarding path):
-//  - bus -> polyport: on_readable runs on the reactor thread; recvmsg copies each frame and
-//    its SO_TIMESTAMPNS stamp into locals, the port is found by binary search in a sorted
-//    array built at construction (no allocation, no lock of ours), the length is checked
-//    against the DBC message (a wrong one is counted and dropped) and the data bytes go to
-//    DataOutPort::write.
+//  - bus -> polyport: on_readable runs on the reactor thread; recvmmsg copies up to 16
+//    frames with their SO_TIMESTAMPNS stamps into arrays on its stack in one system call;
+//    SocketCanAdaptor::receive finds each frame's port by binary search in a sorted array
+//    built at construction (no allocation, no lock of ours), checks the length against the
+//    DBC message (a wrong one is counted and dropped) and writes the data bytes to the port.
 //  - polyport -> bus: an `input` port's sink runs on the upstream writer's thread, builds a
 //    can_frame / canfd_frame on its stack and write()s it without blocking (EAGAIN/ENOBUFS
 //    are counted as send_failed). A periodic port's sink writes a TX_SETUP for its id on
@@ -34,6 +34,7 @@
 #pragma once
 
 #include <linux/can.h>
+#include <sys/socket.h>
 
 #include <atomic>
 #include <cstdint>
@@ -109,6 +110,8 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
   enum class Link : int { up, down, missing };
 
   void on_readable() noexcept override;
+  // One frame of a batch from on_readable, with its timestamp and drop count.
+  void on_frame(const canfd_frame& frame, mmsghdr& received) noexcept;
   void on_tick() noexcept override;
   void on_error_frame(const canfd_frame& frame, MonoTime t_source) noexcept;
   void emit(CanBusEventKind kind, CanBusState state, MonoTime t_source, std::uint32_t error_class = 0,
@@ -125,8 +128,6 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
   std::shared_ptr<CanReactor> reactor_;
   std::unique_ptr<Counters[]> counters_;                // per message
   std::vector<std::unique_ptr<FrameWriter>> writers_;  // per message; null for output ports
-  // (can_id, message index) of the output ports, sorted: the receive path's lookup.
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> by_can_id_;
   std::atomic<int> fd_{-1};
   std::atomic<int> bcm_fd_{-1};  // -1 when no port is periodic
   bool periodic_ = false;
