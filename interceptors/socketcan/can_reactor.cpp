@@ -34,28 +34,31 @@ CanReactor::~CanReactor() {
 Result<void> CanReactor::start() {
   const std::lock_guard lock(start_mutex_);
   if (thread_.joinable()) return {};
+  // A failure closes what this call opened, so a later add() starts afresh and leaks nothing.
+  auto fail = [this](const char* what) {
+    const std::string message = std::string(what) + ": " + std::strerror(errno);
+    for (int* fd : {&timer_fd_, &wake_fd_, &epoll_fd_}) {
+      if (*fd >= 0) ::close(*fd);
+      *fd = -1;
+    }
+    return make_error(message);
+  };
   epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
-  if (epoll_fd_ < 0) return make_error(std::string("epoll_create1: ") + std::strerror(errno));
+  if (epoll_fd_ < 0) return fail("epoll_create1");
   wake_fd_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
-  if (wake_fd_ < 0) return make_error(std::string("eventfd: ") + std::strerror(errno));
+  if (wake_fd_ < 0) return fail("eventfd");
   epoll_event event{};
   event.events = EPOLLIN;
   event.data.ptr = nullptr;  // the wake-up descriptor
-  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, wake_fd_, &event) != 0) {
-    return make_error(std::string("epoll_ctl: ") + std::strerror(errno));
-  }
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, wake_fd_, &event) != 0) return fail("epoll_ctl");
   timer_fd_ = ::timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC | TFD_NONBLOCK);
-  if (timer_fd_ < 0) return make_error(std::string("timerfd_create: ") + std::strerror(errno));
+  if (timer_fd_ < 0) return fail("timerfd_create");
   itimerspec period{};
   period.it_interval.tv_nsec = std::chrono::nanoseconds(kTickInterval).count();
   period.it_value = period.it_interval;
-  if (::timerfd_settime(timer_fd_, 0, &period, nullptr) != 0) {
-    return make_error(std::string("timerfd_settime: ") + std::strerror(errno));
-  }
+  if (::timerfd_settime(timer_fd_, 0, &period, nullptr) != 0) return fail("timerfd_settime");
   event.data.ptr = &timer_tag;
-  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, timer_fd_, &event) != 0) {
-    return make_error(std::string("epoll_ctl: ") + std::strerror(errno));
-  }
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, timer_fd_, &event) != 0) return fail("epoll_ctl");
   thread_ = std::thread([this] { run(); });
   return {};
 }
