@@ -259,7 +259,7 @@ Status ServiceServer::submit(PendingCall& call) noexcept {
   }
   slot->operation.store(call.operation, std::memory_order_relaxed);
   slot->call = &call;
-  slot->deadline_ns = (mono_now() + Nanos{timeout_ns_}).ns;
+  slot->deadline_ns.store((mono_now() + Nanos{timeout_ns_}).ns, std::memory_order_relaxed);
   // Pending before the send: a server in this process may reply inside it.
   slot->state.store(op.oneway ? CallSlot::completing : CallSlot::pending, std::memory_order_release);
   status = ends.request->send(slot->wire.get(), encoded.size);
@@ -340,9 +340,24 @@ void ServiceServer::expire() noexcept {
     timer_wake_.wait_for(lock, period, [this] { return timer_stop_; });
     const std::int64_t now = mono_now().ns;
     for (CallSlot& slot : slots_) {
-      if (slot.state.load(std::memory_order_acquire) != CallSlot::pending || slot.deadline_ns > now) continue;
+      // The call whose deadline is read: its sequence number, read before its state (a newer
+      // call writes its sequence number when it claims the slot, its deadline before it
+      // stores pending).
+      const std::uint64_t sequence = slot.sequence.load(std::memory_order_acquire);
+      if (slot.state.load(std::memory_order_acquire) != CallSlot::pending ||
+          slot.deadline_ns.load(std::memory_order_relaxed) > now) {
+        continue;
+      }
       std::uint8_t expected = CallSlot::pending;
-      if (slot.state.compare_exchange_strong(expected, CallSlot::completing)) finish(slot, Status::timeout);
+      if (!slot.state.compare_exchange_strong(expected, CallSlot::completing)) continue;
+      if (slot.sequence.load(std::memory_order_acquire) != sequence) {
+        // The expired call ended and a newer one took the slot meanwhile: not this one's
+        // deadline. Back to pending (a reply in this short window is lost; the call then
+        // times out on its own deadline).
+        slot.state.store(CallSlot::pending, std::memory_order_release);
+        continue;
+      }
+      finish(slot, Status::timeout);
     }
   }
 }

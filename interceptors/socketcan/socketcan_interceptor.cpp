@@ -16,6 +16,7 @@
 #include <ctime>
 #include <iterator>
 #include <string>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
@@ -56,7 +57,14 @@ constexpr const char* kLinkNames[] = {"up", "down", "missing"};
 }  // namespace
 
 Status SocketCanInterceptor::FrameWriter::on_sample(const std::byte* data, const SampleMeta& meta) noexcept {
-  if (!active.load(std::memory_order_acquire)) return Status::not_active;
+  // Counted in while it runs, so that unschedule() (after `active` is cleared) waits for a
+  // sink that saw `active` before it: such a sink could start a broadcast manager task again.
+  struct InSink {
+    std::atomic<int>& count;
+    explicit InSink(std::atomic<int>& c) : count(c) { count.fetch_add(1, std::memory_order_seq_cst); }
+    ~InSink() { count.fetch_sub(1, std::memory_order_release); }
+  } in_sink(in_sink_);
+  if (!active.load(std::memory_order_seq_cst)) return Status::not_active;
   const DbcMessage& dbc = *message_.dbc;
   if (meta.size != dbc.length) {
     counters_.bad_length.fetch_add(1, std::memory_order_relaxed);
@@ -134,6 +142,8 @@ void SocketCanInterceptor::FrameWriter::reschedule() noexcept {
 }
 
 void SocketCanInterceptor::FrameWriter::unschedule() noexcept {
+  // `active` is false now (stop); a sink that saw it true is past its TX_SETUP once it is out.
+  while (in_sink_.load(std::memory_order_acquire) != 0) std::this_thread::yield();
   if (!scheduled.exchange(false, std::memory_order_acq_rel)) return;
   bcm_msg_head head{};
   head.opcode = TX_DELETE;
@@ -169,13 +179,20 @@ std::string SocketCanInterceptor::where() const {
 
 Result<void> SocketCanInterceptor::create_sockets() {
   const int fd = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
-  if (fd < 0) return make_error(where() + ": socket(PF_CAN, SOCK_RAW, CAN_RAW): " + errno_text(errno));
+  if (fd < 0) {
+    const int error = errno;
+    return make_error(where() + ": socket(PF_CAN, SOCK_RAW, CAN_RAW): " + errno_text(error) +
+                      (error == EAFNOSUPPORT || error == EPROTONOSUPPORT
+                           ? " (this kernel has no SocketCAN: `modprobe can-raw can-bcm`, or, on a kernel built "
+                             "without CAN, run polyportd through scripts/vcan-run)"
+                           : ""));
+  }
   fd_.store(fd, std::memory_order_release);  // unbound: receives nothing until attach() replaces it
   if (periodic_) {
     const int bcm = ::socket(PF_CAN, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_BCM);
     if (bcm < 0) {
       return make_error(where() + ": socket(PF_CAN, SOCK_DGRAM, CAN_BCM) for the periodic messages: " +
-                        errno_text(errno) + " (kernel module can-bcm)");
+                        errno_text(errno) + " (load the kernel module: `modprobe can-bcm`)");
     }
     bcm_fd_.store(bcm, std::memory_order_release);
   }
@@ -238,16 +255,21 @@ Result<void> SocketCanInterceptor::attach(int ifindex) {
   // ago writes to the old socket or to the new one, never to a reused number. The old
   // sockets die with their last reference, and the old BCM tasks with them.
   const int old_fd = fd_.load(std::memory_order_acquire);
+  // Watched before (or a re-attach whose add failed: tried again now).
+  const bool watch = registered_ || rewatch_;
   if (registered_) reactor_->remove_in_tick(old_fd);
+  registered_ = false;
   // The new socket counts its drops from 0 (no handler runs now: this is the tick or start).
   dropped_before_.fetch_add(dropped_.exchange(0, std::memory_order_relaxed), std::memory_order_relaxed);
   (void)::dup2(fd, old_fd);
   ::close(fd);
-  if (registered_) {
+  if (watch) {
     if (auto added = reactor_->add_in_tick(old_fd, *this); !added) {
-      registered_ = false;
+      rewatch_ = true;  // the tick's next attempt adds it again
       return make_error(where() + ": " + added.error().message);
     }
+    registered_ = true;
+    rewatch_ = false;
   }
   if (bcm >= 0) {
     for (auto& writer : writers_) {
@@ -300,8 +322,9 @@ Result<void> SocketCanInterceptor::start() {
       }
     } else {
       spdlog::error("{} does not exist; the component runs without it and picks it up when it appears "
-                    "(checked every {} ms), e.g. after `ip link add dev {} type vcan && ip link set {} up`",
-                    where(), CanReactor::kTickInterval.count(), name, name);
+                    "(checked every {} ms): for a CAN controller, e.g. `ip link set {} up type can bitrate "
+                    "500000`; for a virtual bus, `ip link add dev {} type vcan && ip link set {} up`",
+                    where(), CanReactor::kTickInterval.count(), name, name, name);
       link_.store(static_cast<int>(Link::missing), std::memory_order_relaxed);
       emit(CanBusEventKind::interface_missing, CanBusState::missing, mono_now());
     }
@@ -327,7 +350,7 @@ Result<void> SocketCanInterceptor::start() {
 void SocketCanInterceptor::stop() noexcept {
   reactor_->unwatch(*this);  // from here on no tick touches this interceptor
   for (auto& writer : writers_) {
-    if (writer) writer->active.store(false, std::memory_order_release);
+    if (writer) writer->active.store(false, std::memory_order_seq_cst);  // before unschedule's wait
   }
   for (auto& writer : writers_) {
     if (writer) writer->unschedule();

@@ -90,6 +90,7 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
     std::atomic<bool> scheduled{false};
 
    private:
+    std::atomic<int> in_sink_{0};  // sinks running now (unschedule waits for none)
     // Writes the BCM TX_SETUP of `frame`; true when the kernel took it.
     bool setup(const canfd_frame& frame, std::size_t frame_size, bool first) noexcept;
 
@@ -166,6 +167,7 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
   // shifts the converted stamps by the step until the next start.
   Nanos realtime_to_mono_{};
   bool registered_ = false;
+  bool rewatch_ = false;  // attach() could not watch the new socket: the next attach() tries again
   bool active_ = false;
 };
 

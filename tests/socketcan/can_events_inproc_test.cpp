@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -49,7 +50,20 @@ TEST_F(CanEventsInproc, AnInProcessComponentCountsBusOffEvents) {
   ASSERT_TRUE(count_is(0)) << "the watcher did not run; last count " << count;
   ASSERT_EQ(cansend("vcan0", "20000040#0000000000000000"), "");  // CAN_ERR_BUSOFF
   EXPECT_TRUE(count_is(1)) << "the watcher counted " << count << " bus-off events";
-  ASSERT_EQ(cansend("vcan0", "20000004#0008000000006000"), "");  // a warning is no bus-off
+  // A warning is no bus-off: once the CAN thread has written it as an event and the watcher
+  // has run twice since, the count must still be 1.
+  ASSERT_EQ(cansend("vcan0", "20000004#0008000000006000"), "");
+  const auto warnings_seen = [&] {
+    nlohmann::json out;
+    engine.find_interceptor("bus0")->describe(out);
+    return out["socketcan"]["bus"]["kinds"]["error_warning"] == 1;
+  };
+  ASSERT_TRUE(test::eventually(warnings_seen, std::chrono::seconds(5))) << "the warning frame did not arrive";
+  const std::uint64_t runs = engine.find_interceptor("watcher")->status().executions;
+  ASSERT_TRUE(test::eventually(
+      [&] { return engine.find_interceptor("watcher")->status().executions >= runs + 2; }, std::chrono::seconds(5)))
+      << "the watcher stopped running";
+  EXPECT_TRUE(count_is(1)) << "the watcher counted " << count << " bus-off events after a warning";
   ASSERT_EQ(cansend("vcan0", "20000040#0000000000000000"), "");
   EXPECT_TRUE(count_is(2)) << "the watcher counted " << count << " bus-off events";
   engine.stop();

@@ -149,7 +149,7 @@ struct CallSlot {
   std::atomic<std::uint64_t> sequence{0};  // ServiceServer: the sequence number this call was given
   std::uint64_t generation = 0;      // ServiceServer: how many calls the slot has carried
   PendingCall* call = nullptr;       // ServiceServer: the in-process call
-  std::int64_t deadline_ns = 0;      // ServiceServer: when the call times out
+  std::atomic<std::int64_t> deadline_ns{0};  // ServiceServer: when the call times out (read by the timer)
   std::uint8_t caller[kMaxCallerBytes] = {};  // ServiceClient: the request's caller
   std::uint64_t caller_sequence = 0;          // ServiceClient: and its sequence number
   std::unique_ptr<std::byte[]> flat;  // the request or reply struct, flat
