@@ -13,6 +13,8 @@
 #include <memory>
 #include <vector>
 
+#include <spdlog/spdlog.h>
+
 namespace polyport::daemon {
 namespace {
 
@@ -175,6 +177,7 @@ void AdminServer::loop() {
                                     "request longer than " + std::to_string(admin::kMaxRequestLine) +
                                         " bytes; connection closed");
         c.closing = true;
+        spdlog::warn("admin socket: a client sent a request line over {} bytes; cut off", admin::kMaxRequestLine);
         break;
       }
       admin::ParseError error;
@@ -256,7 +259,15 @@ void AdminServer::loop() {
     for (auto& [id, c] : clients) {
       if (c->closing && c->sent == c->out.size() && !c->in_flight) cut.push_back(id);
     }
-    for (std::uint64_t id : cut) clients.erase(id);
+    for (std::uint64_t id : cut) {
+      auto it = clients.find(id);
+      if (it == clients.end()) continue;
+      const Client& c = *it->second;
+      if (c.out.size() - c.sent > kMaxOutput) {
+        spdlog::warn("admin socket: a client left {} bytes of replies unread; cut off", c.out.size() - c.sent);
+      }
+      clients.erase(it);
+    }
 
     if (fds[0].revents & POLLIN) {
       for (;;) {
@@ -271,6 +282,7 @@ void AdminServer::loop() {
           c->out = admin::error_reply(nullptr, admin::kAccessDenied, "access denied: cannot read the peer's credentials");
           c->closing = true;
         } else if (peer.uid != own_uid && peer.uid != 0) {
+          spdlog::warn("admin socket: refused a connection from uid {} (pid {})", peer.uid, peer.pid);
           c->out = admin::error_reply(nullptr, admin::kAccessDenied,
                                       "access denied: uid " + std::to_string(peer.uid) +
                                           " is neither the daemon's uid (" + std::to_string(own_uid) + ") nor root");

@@ -273,6 +273,8 @@ TEST_F(Control, AMegabyteLineIsCutOffAndForwardingGoesOn) {
     EXPECT_EQ((*reply)["code"], "too_long") << reply->dump();
   }
   EXPECT_TRUE(client.closed_by_daemon());
+  EXPECT_TRUE(eventually([&] { return daemon_->errors().find("request line over 65536 bytes; cut off") != std::string::npos; }, 10s))
+      << daemon_->errors();
   expect_still_forwarding();
 }
 
@@ -291,6 +293,8 @@ TEST_F(Control, AClientThatNeverReadsIsCutOff) {
       },
       30s);
   EXPECT_TRUE(cut) << "the daemon kept a client that never reads";
+  EXPECT_TRUE(eventually([&] { return daemon_->errors().find("bytes of replies unread; cut off") != std::string::npos; }, 10s))
+      << daemon_->errors();
   expect_still_forwarding();
 }
 
@@ -331,6 +335,7 @@ TEST_F(Control, AnotherUserIsRefused) {
   const Ctl refused = as_nobody(dir(), socket_);
   EXPECT_EQ(refused.code, 3) << refused.err;
   EXPECT_NE(refused.err.find("access denied: uid 65534 is neither the daemon's uid"), std::string::npos) << refused.err;
+  EXPECT_NE(daemon_->errors().find("refused a connection from uid 65534"), std::string::npos) << daemon_->errors();
   expect_still_forwarding();
 }
 
