@@ -8,6 +8,7 @@
 #include <sys/un.h>
 
 #include <cstring>
+#include <cstdlib>
 #include <optional>
 
 #include "../support/daemon_harness.hpp"
@@ -296,6 +297,68 @@ TEST_F(Control, AClientThatNeverReadsIsCutOff) {
   EXPECT_TRUE(eventually([&] { return daemon_->errors().find("bytes of replies unread; cut off") != std::string::npos; }, 10s))
       << daemon_->errors();
   expect_still_forwarding();
+}
+
+// Without --admin-socket the daemon uses $XDG_RUNTIME_DIR/polyport/polyportd-<pid>.sock (the
+// folder created 0700), and polyportctl without --socket finds it when it is the only one.
+class DefaultSocket : public DaemonTest {
+ public:
+  DefaultSocket() : DaemonTest("polyport-control-default") {}
+  void SetUp() override {
+    DaemonTest::SetUp();
+    const char* old = std::getenv("XDG_RUNTIME_DIR");
+    if (old != nullptr) saved_ = old;
+    runtime_ = dir() / "xdg";
+    fs::create_directories(runtime_);
+    ::setenv("XDG_RUNTIME_DIR", runtime_.c_str(), 1);  // inherited by polyportd and polyportctl
+  }
+  void TearDown() override {
+    if (saved_) ::setenv("XDG_RUNTIME_DIR", saved_->c_str(), 1);
+    else ::unsetenv("XDG_RUNTIME_DIR");
+    DaemonTest::TearDown();
+  }
+  Ctl ctl(std::vector<std::string> args) {
+    args.insert(args.begin(), POLYPORTCTL);
+    const std::string tag = "ctl-" + std::to_string(++calls_);
+    Ctl result;
+    {
+      Child child(dir(), tag, args);
+      result.code = child.wait(20s);
+    }
+    result.out = read_file(dir() / (tag + ".out"));
+    result.err = read_file(dir() / (tag + ".err"));
+    return result;
+  }
+
+  fs::path runtime_;
+  std::optional<std::string> saved_;
+  int calls_ = 0;
+};
+
+TEST_F(DefaultSocket, DaemonAndCtlMeetInTheRuntimeFolder) {
+  const Ctl none = ctl({"hello"});
+  EXPECT_EQ(none.code, 3);
+  EXPECT_NE(none.err.find("no daemon socket in " + (runtime_ / "polyport").string()), std::string::npos) << none.err;
+
+  auto d = daemon(kProfile);
+  ASSERT_TRUE(eventually([&] { return ctl({"hello"}).code == 0; }, 30s)) << d->errors();
+  const Json hello = ctl({"--json", "hello"}).json();
+  const fs::path socket = runtime_ / "polyport" / ("polyportd-" + std::to_string(hello["pid"].get<int>()) + ".sock");
+  EXPECT_TRUE(fs::exists(socket)) << socket;
+  struct stat st{};
+  ASSERT_EQ(::stat((runtime_ / "polyport").c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0700u);
+
+  // A second socket (another daemon): polyportctl asks which one.
+  { std::ofstream(runtime_ / "polyport" / "polyportd-1.sock") << ""; }
+  const Ctl two = ctl({"hello"});
+  EXPECT_EQ(two.code, 2);
+  EXPECT_NE(two.err.find("2 daemon sockets"), std::string::npos) << two.err;
+  EXPECT_EQ(ctl({"--socket", socket.string(), "hello"}).code, 0);
+  fs::remove(runtime_ / "polyport" / "polyportd-1.sock");
+
+  stop(*d);
+  EXPECT_FALSE(fs::exists(socket)) << "the admin socket is removed at exit";
 }
 
 // Runs polyportctl as uid/gid 65534 (nobody); its exit code and stderr.
