@@ -5,11 +5,14 @@
 //   1  a run-time failure (a component did not start, a file could not be written)
 //   2  bad command line
 //   3  a profile has problems (each printed as file:line:col: element path: message)
+#include <poll.h>
 #include <signal.h>
+#include <sys/signalfd.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cstring>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
@@ -18,7 +21,10 @@
 #include <spdlog/spdlog.h>
 #include <sstream>
 
+#include "admin_protocol.hpp"
+#include "admin_server.hpp"
 #include "models.hpp"
+#include "polyport/runtime/component_api.hpp"
 #include "polyport/runtime/engine.hpp"
 #include "polyport/profile/profile.hpp"
 #include "polyport/types/types.hpp"
@@ -54,6 +60,7 @@ struct Options {
   std::vector<std::string> trace_ports;
   std::string trace_file = "polyport-trace.jsonl";
   std::uint32_t trace_depth = 4096;
+  std::string admin_socket;  // empty: the default path; "none": no admin socket
 };
 
 std::vector<std::filesystem::path> library_path(const Options& options) {
@@ -262,6 +269,71 @@ void print_final_stats(const nlohmann::json& stats) {
   }
 }
 
+// The statistics of --stats-json, also what the admin socket's `stats` answers.
+nlohmann::json collect_stats(const Engine& engine, const Options& options, std::chrono::steady_clock::time_point t_start) {
+  nlohmann::json stats;
+  engine.stats(stats);
+  stats["polyport_version"] = POLYPORT_VERSION;
+  stats["profiles"] = options.profiles;
+  stats["run_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return stats;
+}
+
+// Answers an admin request; runs on the engine's control thread (this main thread).
+std::string answer(const admin::Request& request, Engine& engine, const Options& options,
+                   std::chrono::steady_clock::time_point t_start) {
+  using admin::Command;
+  switch (request.command) {
+    case Command::hello: {
+      nlohmann::json graph;
+      engine.describe(graph);
+      return admin::ok_reply(request.id, {{"protocol", admin::kProtocolVersion},
+                                          {"daemon", "polyportd"},
+                                          {"version", POLYPORT_VERSION},
+                                          {"pid", getpid()},
+                                          {"application", graph.value("application", "")},
+                                          {"profiles", options.profiles}});
+    }
+    case Command::list: {
+      // The graph of `check --json`, with each component's lifecycle state now.
+      nlohmann::json graph;
+      engine.describe(graph);
+      for (auto& c : graph["components"]) {
+        if (const Interceptor* i = engine.find_interceptor(c.value("name", ""))) c["state"] = i->status().state;
+      }
+      return admin::ok_reply(request.id, graph);
+    }
+    case Command::stats:
+      return admin::ok_reply(request.id, collect_stats(engine, options, t_start));
+    case Command::activate:
+    case Command::deactivate:
+    case Command::reset: {
+      Interceptor* interceptor = engine.find_interceptor(request.component);
+      if (interceptor == nullptr) {
+        nlohmann::json graph;
+        engine.describe(graph);
+        std::string names;
+        for (const auto& c : graph["components"]) names += (names.empty() ? "" : ", ") + c.value("name", "");
+        return admin::error_reply(request.id, admin::kUnknownComponent,
+                                  "no component named '" + request.component + "' (components: " + names + ")");
+      }
+      const LifecycleCommand command = request.command == Command::activate     ? LifecycleCommand::activate
+                                       : request.command == Command::deactivate ? LifecycleCommand::deactivate
+                                                                                : LifecycleCommand::reset;
+      const ReturnCode code = interceptor->command(command);
+      const std::string state = interceptor->status().state;
+      if (code != ReturnCode::ok) {
+        return admin::error_reply(request.id, admin::kRefused,
+                                  std::string(to_string(command)) + " " + request.component + ": " +
+                                      std::string(to_string(code)) + " (state " + state + ")");
+      }
+      spdlog::info("admin: {} {}: now {}", to_string(command), request.component, state);
+      return admin::ok_reply(request.id, {{"component", request.component}, {"state", state}});
+    }
+  }
+  return admin::error_reply(request.id, admin::kUnknownCommand, "unknown command");
+}
+
 int run_daemon(const Options& options) {
   // Signals are taken synchronously by this thread; every other thread inherits the mask.
   sigset_t signals;
@@ -295,6 +367,30 @@ int run_daemon(const Options& options) {
     spdlog::info("tracing {} port(s) to {}", options.trace_ports.size(), options.trace_file);
   }
 
+  // Before the engine's threads start: creating the socket sets the process's umask briefly.
+  daemon::AdminServer admin;
+  if (options.admin_socket != "none") {
+    std::string path = options.admin_socket;
+    // The default place may be out of reach (no /run/polyport for a user without
+    // XDG_RUNTIME_DIR): the daemon then runs without a socket and says so. A path given on
+    // the command line must work.
+    const bool chosen = !path.empty();
+    if (!chosen) {
+      Result<std::string> fallback = daemon::default_admin_socket();
+      if (fallback) path = fallback.value();
+      else spdlog::warn("no admin socket: {}", fallback.error().message);
+    }
+    if (!path.empty()) {
+      if (auto listening = admin.start(path); !listening) {
+        if (chosen) {
+          spdlog::error("{} (--admin-socket none runs without one)", listening.error().message);
+          return kExitRuntime;
+        }
+        spdlog::warn("no admin socket: {} (--admin-socket PATH chooses another place)", listening.error().message);
+      }
+    }
+  }
+
   std::vector<std::string> warnings;
   Result<void> started = engine.start(warnings);
   for (const std::string& warning : warnings) spdlog::warn("{}", warning);
@@ -303,6 +399,13 @@ int run_daemon(const Options& options) {
     return kExitRuntime;
   }
   spdlog::info("running {} (pid {}); SIGINT or SIGTERM stops", options.profiles.front(), getpid());
+  if (!admin.path().empty()) spdlog::info("admin socket {}", admin.path());
+  const int signal_fd = signalfd(-1, &signals, SFD_NONBLOCK | SFD_CLOEXEC);
+  if (signal_fd < 0) {
+    spdlog::error("signalfd: {}", strerror(errno));
+    engine.stop();
+    return kExitRuntime;
+  }
 
   using Clock = std::chrono::steady_clock;
   const auto t_start = Clock::now();
@@ -311,13 +414,20 @@ int run_daemon(const Options& options) {
   int stop_signal = 0;
   while (stop_signal == 0) {
     // Wake often enough to drain traces; otherwise sleep until the next summary.
-    auto wait = std::chrono::milliseconds(tracer.active() ? 100 : 500);
-    timespec timeout{0, static_cast<long>(std::chrono::nanoseconds(wait).count())};
-    const int signal = sigtimedwait(&signals, nullptr, &timeout);
-    if (signal == SIGINT || signal == SIGTERM) {
-      stop_signal = signal;
-    } else if (signal == SIGHUP) {
-      spdlog::warn("SIGHUP: reloading profiles is not supported yet; the running graph is unchanged");
+    // Admin requests wake it at once.
+    pollfd fds[2] = {{signal_fd, POLLIN, 0}, {admin.request_fd(), POLLIN, 0}};
+    ::poll(fds, admin.request_fd() >= 0 ? 2 : 1, tracer.active() ? 100 : 500);
+    signalfd_siginfo info{};
+    while (::read(signal_fd, &info, sizeof info) == static_cast<ssize_t>(sizeof info)) {
+      const int signal = static_cast<int>(info.ssi_signo);
+      if (signal == SIGINT || signal == SIGTERM) {
+        stop_signal = signal;
+      } else if (signal == SIGHUP) {
+        spdlog::warn("SIGHUP: reloading profiles is not supported yet; the running graph is unchanged");
+      }
+    }
+    if (admin.request_fd() >= 0 && (fds[1].revents & POLLIN)) {
+      admin.serve([&](const admin::Request& request) { return answer(request, engine, options, t_start); });
     }
     if (tracer.active()) tracer.drain();
     const auto now = Clock::now();
@@ -328,17 +438,15 @@ int run_daemon(const Options& options) {
     if (options.duration_s > 0 && now - t_start >= std::chrono::duration<double>(options.duration_s)) break;
   }
   spdlog::info("stopping ({})", stop_signal ? strsignal(stop_signal) : "duration reached");
+  ::close(signal_fd);
+  admin.stop();
   engine.stop();
   if (tracer.active()) {
     tracer.drain();
     if (tracer.lost() > 0) spdlog::warn("trace lost {} sample(s): raise --trace-depth", tracer.lost());
   }
 
-  nlohmann::json stats;
-  engine.stats(stats);
-  stats["polyport_version"] = POLYPORT_VERSION;
-  stats["profiles"] = options.profiles;
-  stats["run_seconds"] = std::chrono::duration<double>(Clock::now() - t_start).count();
+  const nlohmann::json stats = collect_stats(engine, options, t_start);
   if (!options.quiet) print_final_stats(stats);
   if (!options.stats_json.empty()) {
     std::ofstream out(options.stats_json);
@@ -378,6 +486,9 @@ int main(int argc, char** argv) {
   run->add_option("--trace-file", options.trace_file, "where --trace writes")->capture_default_str();
   run->add_option("--trace-depth", options.trace_depth, "samples buffered per traced port between drains")
       ->capture_default_str()->check(CLI::Range(1u, 1u << 20));
+  run->add_option("--admin-socket", options.admin_socket,
+                  "Unix socket for polyportctl (mode 0600; default $XDG_RUNTIME_DIR/polyport/polyportd-<pid>.sock, "
+                  "or /run/polyport/... without XDG_RUNTIME_DIR; 'none': no socket); see docs/CONTROL.md");
 
   CLI::App* check = app.add_subcommand("check", "validate PROFILE(s) and print the resolved graph");
   check->add_option("profiles", options.profiles, "application profile(s)")->required();

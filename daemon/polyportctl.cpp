@@ -1,0 +1,261 @@
+// polyportctl: talks to a running polyportd through its admin socket (docs/CONTROL.md).
+//
+// One request, one reply: connects, sends the request line, waits (poll, with a deadline)
+// for the reply line, prints it as a table (or as JSON with --json).
+//
+// Exit codes (also in --help):
+//   0  done
+//   1  the daemon refused the command (unknown component, a lifecycle transition not allowed)
+//   2  bad command line (or several daemon sockets and no --socket)
+//   3  no daemon: no socket, nobody listening, access denied, no reply
+#include <errno.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "admin_protocol.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using polyport::admin::Command;
+
+constexpr int kExitOk = 0;
+constexpr int kExitRefused = 1;
+constexpr int kExitUsage = 2;
+constexpr int kExitNoDaemon = 3;
+
+constexpr const char* kExitCodesHelp =
+    "Exit codes:\n"
+    "  0  done\n"
+    "  1  the daemon refused the command (unknown component, transition not allowed)\n"
+    "  2  bad command line, or several daemon sockets and no --socket\n"
+    "  3  no daemon: no socket, nobody listening, access denied, or no reply\n";
+
+struct Failure {
+  int code;
+  std::string message;
+};
+
+// The one daemon socket in the default folder.
+std::string find_socket() {
+  const std::string dir = polyport::admin::default_socket_dir();
+  std::vector<std::string> found;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.rfind("polyportd-", 0) == 0 && it->path().extension() == ".sock") found.push_back(it->path().string());
+  }
+  if (found.empty()) throw Failure{kExitNoDaemon, "no daemon socket in " + dir + " (is polyportd running? --socket PATH)"};
+  if (found.size() > 1) {
+    throw Failure{kExitUsage, std::to_string(found.size()) + " daemon sockets in " + dir + "; choose one with --socket PATH"};
+  }
+  return found.front();
+}
+
+json call(const std::string& path, const std::string& request, std::chrono::milliseconds limit) {
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  if (path.size() >= sizeof address.sun_path) throw Failure{kExitUsage, "socket path too long: " + path};
+  std::memcpy(address.sun_path, path.c_str(), path.size() + 1);
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) throw Failure{kExitNoDaemon, std::string("socket: ") + std::strerror(errno)};
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
+    const int e = errno;
+    if (e == EACCES || e == EPERM) throw Failure{kExitNoDaemon, "access denied to " + path + ": " + std::strerror(e)};
+    if (e == ENOENT || e == ECONNREFUSED) throw Failure{kExitNoDaemon, "no daemon listens on " + path};
+    throw Failure{kExitNoDaemon, "cannot connect to " + path + ": " + std::strerror(e)};
+  }
+  // The request is small; a refused peer may have closed already, which the reply tells.
+  [[maybe_unused]] ssize_t sent = ::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
+  polyport::admin::LineBuffer in(64u << 20);
+  std::string line;
+  char buffer[65536];
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  for (;;) {
+    if (in.next(line) == polyport::admin::LineBuffer::Next::line) break;
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) throw Failure{kExitNoDaemon, "no reply from " + path + " within " + std::to_string(limit.count()) + " ms"};
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, static_cast<int>(left.count())) < 0 && errno != EINTR) {
+      throw Failure{kExitNoDaemon, std::string("poll: ") + std::strerror(errno)};
+    }
+    if (p.revents == 0) continue;
+    const ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
+    if (n > 0) {
+      in.append(buffer, static_cast<std::size_t>(n));
+    } else if (n == 0 || (errno != EINTR && errno != EAGAIN)) {
+      throw Failure{kExitNoDaemon, "the daemon closed the connection on " + path + " without a reply"};
+    }
+  }
+  json reply = json::parse(line, nullptr, false);
+  if (reply.is_discarded() || !reply.is_object()) throw Failure{kExitNoDaemon, "the reply is not JSON: " + line.substr(0, 200)};
+  return reply;
+}
+
+std::string text(const json& j, const char* key) {
+  auto it = j.find(key);
+  if (it == j.end() || it->is_null()) return "-";
+  return it->is_string() ? it->get<std::string>() : it->dump();
+}
+
+// Prints rows with every column as wide as its widest cell.
+void table(std::ostream& out, const std::vector<std::vector<std::string>>& rows) {
+  std::vector<std::size_t> width;
+  for (const auto& r : rows) {
+    width.resize(std::max(width.size(), r.size()));
+    for (std::size_t i = 0; i < r.size(); ++i) width[i] = std::max(width[i], r[i].size());
+  }
+  for (const auto& r : rows) {
+    std::string line;
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      line += r[i];
+      if (i + 1 < r.size()) line += std::string(width[i] - r[i].size() + 2, ' ');
+    }
+    out << line << "\n";
+  }
+}
+
+void print_list(const json& g, std::ostream& out) {
+  out << "application " << text(g, "application") << "\n\n";
+  std::vector<std::vector<std::string>> rows{{"COMPONENT", "MODEL", "STATE"}};
+  for (const auto& c : g.value("components", json::array())) rows.push_back({text(c, "name"), text(c, "model"), text(c, "state")});
+  table(out, rows);
+  out << "\n";
+  rows = {{"PORT", "KIND", "DIRECTION", "TYPE"}};
+  for (const auto& c : g.value("components", json::array())) {
+    for (const auto& p : c.value("ports", json::array())) {
+      rows.push_back({text(c, "name") + "." + text(p, "name"), text(p, "kind"), text(p, "direction"),
+                      p.contains("type") ? text(p, "type") : text(p, "service_type")});
+    }
+  }
+  table(out, rows);
+  out << "\n";
+  rows = {{"CONNECTION", "KIND", "POLICY", "MODE", "CONVERSION"}};
+  for (const auto& c : g.value("connections", json::array())) {
+    std::string policy = text(c, "policy");
+    if (c.contains("depth")) policy += "/" + text(c, "depth");
+    rows.push_back({text(c, "source") + " -> " + text(c, "target"), text(c, "kind"), policy, text(c, "mode"),
+                    text(c, "conversion")});
+  }
+  table(out, rows);
+}
+
+void print_stats(const json& s, std::ostream& out) {
+  out << "application " << text(s, "application") << ", running " << std::fixed << std::setprecision(1)
+      << s.value("run_seconds", 0.0) << " s\n\n";
+  std::vector<std::vector<std::string>> rows{{"COMPONENT", "MODEL", "STATE", "EXECUTIONS", "ERRORS"}};
+  for (const auto& c : s.value("components", json::array())) {
+    rows.push_back({text(c, "name"), text(c, "model"), text(c, "state"), text(c, "executions"), text(c, "errors")});
+  }
+  table(out, rows);
+  out << "\n";
+  rows = {{"CONNECTION", "RECEIVED", "DELIVERED", "DROPPED", "P50_NS", "P99_NS", "MAX_NS"}};
+  for (const auto& c : s.value("connections", json::array())) {
+    const json h = c.value("latency_ns", json::object());
+    rows.push_back({text(c, "name"), text(c, "received"), text(c, "delivered"), text(c, "dropped"), text(h, "p50"),
+                    text(h, "p99"), text(h, "max")});
+  }
+  table(out, rows);
+  if (!s.value("services", json::array()).empty()) {
+    out << "\n";
+    rows = {{"SERVICE", "CALLS", "OK", "TIMEOUTS", "ERRORS"}};
+    for (const auto& c : s["services"]) {
+      rows.push_back({text(c, "name"), text(c, "calls"), text(c, "ok"), text(c, "timeouts"), text(c, "errors")});
+    }
+    table(out, rows);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"polyportctl: looks into and commands a running polyportd through its admin socket"};
+  app.footer(kExitCodesHelp);
+  app.require_subcommand(1);
+  std::string socket_path;
+  bool as_json = false;
+  double timeout_s = 10.0;
+  std::string component;
+  app.add_option("--socket", socket_path,
+                 "the daemon's admin socket (default: the only polyportd-*.sock in $XDG_RUNTIME_DIR/polyport, "
+                 "or /run/polyport without XDG_RUNTIME_DIR)");
+  app.add_flag("--json", as_json, "print the reply's result as JSON");
+  app.add_option("--timeout", timeout_s, "seconds to wait for the reply")->capture_default_str()->check(CLI::PositiveNumber);
+  std::vector<std::pair<CLI::App*, Command>> commands;
+  commands.emplace_back(app.add_subcommand("hello", "the daemon's version, pid, application and profiles"), Command::hello);
+  commands.emplace_back(app.add_subcommand("list", "components (model, state), ports, connections (policy, conversion)"),
+                        Command::list);
+  commands.emplace_back(app.add_subcommand("stats", "the live statistics (the JSON of polyportd run --stats-json)"),
+                        Command::stats);
+  for (auto [name, command, help] : {std::tuple{"activate", Command::activate, "activate COMPONENT"},
+                                     std::tuple{"deactivate", Command::deactivate, "deactivate COMPONENT"},
+                                     std::tuple{"reset", Command::reset, "reset COMPONENT (from its error state)"}}) {
+    CLI::App* sub = app.add_subcommand(name, help);
+    sub->add_option("component", component, "component name")->required();
+    commands.emplace_back(sub, command);
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? kExitOk : kExitUsage;
+  }
+  Command command = Command::hello;
+  for (const auto& [sub, c] : commands) {
+    if (sub->parsed()) command = c;
+  }
+  try {
+    if (socket_path.empty()) socket_path = find_socket();
+    const auto limit = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
+    const json reply = call(socket_path, polyport::admin::request_line(1, command, component), limit);
+    if (!reply.value("ok", false)) {
+      const std::string code = reply.value("code", "");
+      std::cerr << "polyportctl: " << reply.value("error", "the daemon refused the request") << "\n";
+      return code == polyport::admin::kAccessDenied ? kExitNoDaemon : kExitRefused;
+    }
+    const json& result = reply["result"];
+    if (as_json) {
+      std::cout << result.dump(2) << "\n";
+      return kExitOk;
+    }
+    switch (command) {
+      case Command::hello:
+        std::cout << text(result, "daemon") << " " << text(result, "version") << ", pid " << text(result, "pid")
+                  << ", protocol " << text(result, "protocol") << "\napplication " << text(result, "application")
+                  << "\nprofiles:";
+        for (const auto& p : result.value("profiles", json::array())) std::cout << " " << p.get<std::string>();
+        std::cout << "\n";
+        break;
+      case Command::list:
+        print_list(result, std::cout);
+        break;
+      case Command::stats:
+        print_stats(result, std::cout);
+        break;
+      default:
+        std::cout << text(result, "component") << ": " << text(result, "state") << "\n";
+    }
+    return kExitOk;
+  } catch (const Failure& f) {
+    std::cerr << "polyportctl: " << f.message << "\n";
+    return f.code;
+  }
+}

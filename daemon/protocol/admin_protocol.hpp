@@ -1,0 +1,80 @@
+// The admin socket's protocol (docs/CONTROL.md): one JSON object per line, at most
+// kMaxRequestLine bytes, `{"v":1,"id":...,"cmd":"...","component":"..."}` in,
+// `{"v":1,"id":...,"ok":true,"result":...}` or `{"v":1,"id":...,"ok":false,"code":"...",
+// "error":"..."}` out. Pure functions and a line buffer, no I/O: the control thread of
+// polyportd and polyportctl both use them, and tests/fuzz/fuzz_admin_request.cpp fuzzes them.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+namespace polyport::admin {
+
+inline constexpr int kProtocolVersion = 1;
+// A request line longer than this (newline excluded) gets an error reply and the client is
+// cut off.
+inline constexpr std::size_t kMaxRequestLine = 64 * 1024;
+
+// The commands of protocol version 1.
+enum class Command { hello, list, stats, activate, deactivate, reset };
+std::string_view to_string(Command command) noexcept;
+// Lifecycle commands name a component.
+bool needs_component(Command command) noexcept;
+
+struct Request {
+  nlohmann::json id;      // echoed in the reply (null when the request had none)
+  Command command = Command::hello;
+  std::string component;  // activate / deactivate / reset
+};
+
+// Error codes of a refused request (the reply's "code"); polyportctl maps access_denied to
+// its exit code 3 and every other to 1.
+inline constexpr const char* kBadRequest = "bad_request";
+inline constexpr const char* kTooLong = "too_long";
+inline constexpr const char* kUnknownCommand = "unknown_command";
+inline constexpr const char* kUnknownComponent = "unknown_component";
+inline constexpr const char* kRefused = "refused";
+inline constexpr const char* kAccessDenied = "access_denied";
+
+struct ParseError {
+  nlohmann::json id;  // the request's id when it could be read, else null
+  std::string code;
+  std::string message;
+};
+
+// Parses one request line (without its newline). Never throws.
+std::optional<Request> parse_request(std::string_view line, ParseError& error);
+
+// Reply lines, newline included. Never throw (strings that are not UTF-8 are replaced).
+std::string ok_reply(const nlohmann::json& id, const nlohmann::json& result);
+std::string error_reply(const nlohmann::json& id, std::string_view code, std::string_view message);
+// A request line, newline included (polyportctl).
+std::string request_line(const nlohmann::json& id, Command command, std::string_view component = {});
+
+// Where daemons put their sockets by default: $XDG_RUNTIME_DIR/polyport when XDG_RUNTIME_DIR
+// is set, else /run/polyport (polyportd-<pid>.sock in it).
+std::string default_socket_dir();
+
+// Splits a byte stream into lines of at most `max` bytes.
+class LineBuffer {
+ public:
+  explicit LineBuffer(std::size_t max = kMaxRequestLine) : max_(max) {}
+  enum class Next { line, need_more, too_long };
+  void append(const char* data, std::size_t size) { pending_.append(data, size); }
+  // The next complete line (newline removed, a trailing '\r' too) into `line`; too_long once
+  // a line (complete or not) is longer than `max`: the stream is then unusable.
+  Next next(std::string& line);
+  std::size_t buffered() const noexcept { return pending_.size() - start_; }
+
+ private:
+  std::size_t max_;
+  std::string pending_;
+  std::size_t start_ = 0;  // first byte not yet returned
+  std::size_t scanned_ = 0;  // bytes after start_ known to hold no newline
+};
+
+}  // namespace polyport::admin

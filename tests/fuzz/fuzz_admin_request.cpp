@@ -1,0 +1,45 @@
+// The admin socket's request path as the daemon's control thread runs it: bytes from a
+// client, split into lines by LineBuffer (in chunks, as recv delivers them), each line
+// parsed, an error reply built for a refused one (its id echoed), request_line round-tripped
+// for an accepted one.
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <string>
+
+#include "admin_protocol.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace polyport::admin;
+  if (size == 0) return 0;
+  // The first byte picks the chunk size, so the framing is fuzzed across boundaries.
+  const std::size_t chunk = 1 + data[0] % 64;
+  LineBuffer in(4096);  // a small bound, so the too_long path is reached
+  std::string line;
+  for (std::size_t at = 1; at < size; at += chunk) {
+    const std::size_t n = std::min(chunk, size - at);
+    in.append(reinterpret_cast<const char*>(data + at), n);
+    for (;;) {
+      const LineBuffer::Next next = in.next(line);
+      if (next == LineBuffer::Next::need_more) break;
+      if (next == LineBuffer::Next::too_long) return 0;  // the daemon cuts the client off
+      if (line.size() > 4096) std::abort();
+      ParseError error;
+      const auto request = parse_request(line, error);
+      if (!request) {
+        if (error.code.empty() || error.message.empty()) std::abort();
+        const std::string reply = error_reply(error.id, error.code, error.message);
+        if (reply.empty() || reply.back() != '\n') std::abort();
+        continue;
+      }
+      const std::string again = request_line(request->id, request->command, request->component);
+      ParseError error2;
+      const auto back = parse_request(std::string_view(again).substr(0, again.size() - 1), error2);
+      // A component name that is not UTF-8 is replaced on the way out; everything else
+      // survives the round trip.
+      if (!back || back->command != request->command) std::abort();
+      if (ok_reply(request->id, nullptr).back() != '\n') std::abort();
+    }
+  }
+  return 0;
+}
