@@ -108,7 +108,7 @@ inline void restart_scenario(DdsEndToEnd& t, const std::string& app, const Route
   const Json stats = t.stop(*polyportd);
   const Json* link = connection(stats, passthrough);
   ASSERT_TRUE(link);
-  EXPECT_EQ((*link)["dropped"], 0) << link->dump(2);
+  EXPECT_EQ((*link)["dropped"], 0) << link->dump(2) << "\npolyportd:\n" << polyportd->errors();
 }
 
 // A DDS client (`program` on `domain`) calls add(i, 0.5) five times on the in-process PeerAdder.

@@ -140,6 +140,11 @@ class DaemonTest : public ::testing::Test {
     args.insert(args.end(), extra.begin(), extra.end());
     auto child = std::make_unique<Child>(dir_, "polyportd", args);
     EXPECT_TRUE(child->started());
+    // Peers start once every component runs ("running" is logged after the engine started
+    // them all), or once the daemon has ended (a test of a refused start): a sample sent
+    // while a receiver is still starting would be dropped, which is not what a test checks.
+    EXPECT_TRUE(eventually([&] { return child->errors().find(" running ") != std::string::npos || child->wait(0ms) != -1; }))
+        << "polyportd neither ran nor ended:\n" << child->errors();
     return child;
   }
   // Stops the daemon (SIGINT) and returns its statistics.
