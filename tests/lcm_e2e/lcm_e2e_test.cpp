@@ -53,6 +53,23 @@ class LcmEndToEnd : public DaemonTest {
   std::unique_ptr<Child> lcm_peer(const std::string& tag, std::vector<std::string> args) {
     return peer(LCM_PEER, tag, std::move(args));
   }
+  // A DDS application (`program`, of model `dds_model`) publishes pose; the LCM peer takes
+  // every pose polyport maps onto pose_t, field by field, nothing dropped.
+  void dds_to_lcm(const char* program, const std::string& dds_model) {
+    auto sub = lcm_peer("sub", {"sub", kUrl, "POSE_OUT"});
+    auto daemon = this->daemon(app("from_dds_app.xml", dds_model));
+    auto pub = peer(program, "dds_pub", {"pub", "17", "pose", "0", "10"}  /* COUNT 0: until stopped */);
+    // The LCM peer decodes with lcm-gen code: nsamples must match the samples polyport wrote.
+    ASSERT_TRUE(eventually([&] { return poses(*sub).size() >= 10; }, 60s))
+        << "LCM sub: " << poses(*sub).size() << " poses\n" << daemon->errors() << pub->errors();
+    for (const Json& pose : poses(*sub)) expect_pose(pose);
+    expect_increasing(poses(*sub));
+    pub.reset();
+    const Json stats = stop(*daemon);
+    const Json* link = connection(stats, "dds.pose -> lcm.pose");
+    ASSERT_NE(link, nullptr);
+    EXPECT_EQ((*link)["dropped"], 0) << link->dump(2);
+  }
 };
 
 // The statistics' entry of an LCM channel of a component.
@@ -147,19 +164,7 @@ TEST_F(LcmEndToEnd, WrongAndCutShortMessagesAreCountedAndDropped) {
 TEST_F(LcmEndToEnd, DdsToLcmCarriesEveryFieldWithItsLengthMember) {
   if (std::string(CYCLONE_PEER).empty()) FAIL() << "cyclone_peer was not built (the Cyclone DDS model is needed)";
   setenv("CYCLONEDDS_URI", "file://" POLYPORT_SOURCE_DIR "/config/cyclonedds-loopback.xml", 1);
-  auto sub = lcm_peer("sub", {"sub", kUrl, "POSE_OUT"});
-  auto daemon = this->daemon(app("from_dds_app.xml"));
-  auto pub = peer(CYCLONE_PEER, "dds_pub", {"pub", "17", "pose", "0", "10"}  /* COUNT 0: until stopped */);
-  // The LCM peer decodes with lcm-gen code: nsamples must match the samples polyport wrote.
-  ASSERT_TRUE(eventually([&] { return poses(*sub).size() >= 10; }, 60s))
-      << "LCM sub: " << poses(*sub).size() << " poses\n" << daemon->errors() << pub->errors();
-  for (const Json& pose : poses(*sub)) expect_pose(pose);
-  expect_increasing(poses(*sub));
-  pub.reset();
-  const Json stats = stop(*daemon);
-  const Json* link = connection(stats, "dds.pose -> lcm.pose");
-  ASSERT_NE(link, nullptr);
-  EXPECT_EQ((*link)["dropped"], 0) << link->dump(2);
+  dds_to_lcm(CYCLONE_PEER, "cyclonedds");
 }
 
 TEST_F(LcmEndToEnd, AMessageOf200KilobytesArrivesIntact) {
@@ -393,18 +398,7 @@ TEST_F(LcmFastDds, LcmToFastDdsCarriesEveryField) {
 }
 
 TEST_F(LcmFastDds, FastDdsToLcmCarriesEveryFieldWithItsLengthMember) {
-  auto sub = lcm_peer("sub", {"sub", kUrl, "POSE_OUT"});
-  auto daemon = this->daemon(app("from_dds_app.xml", "fastdds"));
-  auto pub = peer(FASTDDS_PEER, "fast_pub", {"pub", "17", "pose", "0", "10"}  /* COUNT 0: until stopped */);
-  ASSERT_TRUE(eventually([&] { return poses(*sub).size() >= 10; }, 60s))
-      << "LCM sub: " << poses(*sub).size() << " poses\n" << daemon->errors() << pub->errors();
-  for (const Json& pose : poses(*sub)) expect_pose(pose);
-  expect_increasing(poses(*sub));
-  pub.reset();
-  const Json stats = stop(*daemon);
-  const Json* link = connection(stats, "dds.pose -> lcm.pose");
-  ASSERT_NE(link, nullptr);
-  EXPECT_EQ((*link)["dropped"], 0) << link->dump(2);
+  dds_to_lcm(FASTDDS_PEER, "fastdds");
 }
 
 }  // namespace
