@@ -26,6 +26,11 @@ struct WheelSpeeds {
   double time_s = 0.0;
 };
 
+struct EncoderSpeeds {
+  double left_rad_s = 0.0;
+  double right_rad_s = 0.0;
+};
+
 struct MotorVoltages {
   double left_v = 0.0;
   double right_v = 0.0;
@@ -35,6 +40,7 @@ struct MotorVoltages {
 static_assert(sizeof(JoystickPosition) == 2 * sizeof(double) && alignof(JoystickPosition) == alignof(double));
 static_assert(sizeof(Reference) == 2 * sizeof(double) && alignof(Reference) == alignof(double));
 static_assert(sizeof(WheelSpeeds) == 5 * sizeof(double) && alignof(WheelSpeeds) == alignof(double));
+static_assert(sizeof(EncoderSpeeds) == 2 * sizeof(double) && alignof(EncoderSpeeds) == alignof(double));
 static_assert(sizeof(MotorVoltages) == 2 * sizeof(double) && alignof(MotorVoltages) == alignof(double));
 static_assert(std::is_trivially_copyable_v<JoystickPosition> && std::is_trivially_copyable_v<Reference> &&
               std::is_trivially_copyable_v<WheelSpeeds> && std::is_trivially_copyable_v<MotorVoltages>);
