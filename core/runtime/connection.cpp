@@ -98,6 +98,7 @@ void Connection::hand_over(const std::byte* data, const SampleMeta& meta) noexce
     // polyport's own time ends where the sink (an adaptor, or a foreign SDK's write) begins.
     const MonoTime handed = mono_now();
     latency_.record((handed - meta.t_in).count);
+    if (meta.t_source.ns != 0) transit_.record((handed - meta.t_source).count);
     const Status status = target_.sink()->on_sample(data, meta);
     sink_time_.record((mono_now() - handed).count);
     if (status == Status::ok) {
@@ -108,7 +109,9 @@ void Connection::hand_over(const std::byte* data, const SampleMeta& meta) noexce
     return;
   }
   const PushResult result = buffer_->push(data, meta);
-  latency_.record((mono_now() - meta.t_in).count);
+  const MonoTime stored = mono_now();
+  latency_.record((stored - meta.t_in).count);
+  if (meta.t_source.ns != 0) transit_.record((stored - meta.t_source).count);
   switch (result) {
     case PushResult::stored:
       counters_.delivered.fetch_add(1, std::memory_order_relaxed);

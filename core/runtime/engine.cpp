@@ -16,7 +16,7 @@ constexpr std::uint32_t kDefaultDepth = 16;
 constexpr std::uint32_t kMaxDepth = 1u << 20;
 
 nlohmann::json to_json(const LatencyHistogram::Summary& s) {
-  return {{"count", s.count}, {"min", s.min}, {"mean", s.mean}, {"p50", s.p50}, {"p90", s.p90},
+  return {{"count", s.count}, {"min", s.min}, {"mean", s.mean}, {"sd", s.sd}, {"p50", s.p50}, {"p90", s.p90},
           {"p99", s.p99},     {"p999", s.p999}, {"max", s.max}};
 }
 
@@ -324,6 +324,7 @@ void Engine::stats(nlohmann::json& out) const {
                      {"latency_ns", to_json(c->latency().summarize())}};
     if (!c->push_mode()) j["age_at_read_ns"] = to_json(c->age().summarize());
     if (c->push_mode()) j["sink_ns"] = to_json(c->sink_time().summarize());
+    if (const auto transit = c->transit().summarize(); transit.count != 0) j["transit_ns"] = to_json(transit);
     out["connections"].push_back(std::move(j));
   }
   out["services"] = nlohmann::json::array();

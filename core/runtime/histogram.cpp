@@ -112,6 +112,16 @@ LatencyHistogram::Summary LatencyHistogram::summarize() const noexcept {
       ++next;
     }
   }
+  double squares = 0.0;
+  for (int i = 0; i < kBucketCount; ++i) {
+    const std::uint64_t n = snap[static_cast<std::size_t>(i)];
+    if (n == 0) continue;
+    const double lower = i == 0 ? 0.0 : static_cast<double>(bucket_upper(i - 1)) + 1.0;
+    const double mid = std::clamp(0.5 * (lower + static_cast<double>(bucket_upper(i))),
+                                  static_cast<double>(s.min), static_cast<double>(s.max));
+    squares += static_cast<double>(n) * (mid - s.mean) * (mid - s.mean);
+  }
+  s.sd = std::sqrt(squares / static_cast<double>(count));
   return s;
 }
 

@@ -50,6 +50,23 @@ TEST(DataConnection, DataPolicyKeepsTheLatestValue) {
   EXPECT_EQ(w.connection->age().summarize().count, 1u);
 }
 
+// transit is t_out - t_source: recorded only for samples whose source stamped them, and at
+// least as long as the time the sample spent before it was written.
+TEST(DataConnection, TransitCountsFromTheSourcesOwnStamp) {
+  Wire w(QueuePolicy::data, 1);
+  std::uint64_t v = 1;
+  ASSERT_EQ(w.write(v), Status::ok);
+  EXPECT_EQ(w.connection->transit().summarize().count, 0u);  // no stamp: in-process writer
+  const Nanos before_write{5'000'000};
+  const MonoTime stamped = mono_now() + Nanos{-before_write.count};
+  ASSERT_EQ(w.out.write(&v, sizeof v, stamped), Status::ok);
+  const auto transit = w.connection->transit().summarize();
+  ASSERT_EQ(transit.count, 1u);
+  EXPECT_GE(transit.min, before_write.count);
+  EXPECT_EQ(w.connection->latency().summarize().count, 2u);
+  EXPECT_LT(w.connection->latency().summarize().max, transit.min);
+}
+
 TEST(DataConnection, BufferDropsTheNewestWhenFull) {
   Wire w(QueuePolicy::buffer, 4);
   for (std::uint64_t i = 0; i < 10; ++i) w.write(i);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <random>
@@ -161,6 +162,34 @@ TEST(LatencyHistogram, PercentilesMatchExactSortWithinRelativeError) {
   for (std::uint64_t pm : {1u, 100u, 250u, 750u, 995u}) {
     expect_close(exact_percentile(values, pm), h.percentile(static_cast<double>(pm) / 10.0), "p");
   }
+}
+
+// The standard deviation comes from bucket midpoints: exact for values in the linear range,
+// within the buckets' relative width above it.
+TEST(LatencyHistogram, StandardDeviationFromTheBuckets) {
+  LatencyHistogram small;
+  for (std::int64_t v : {2, 4, 4, 4, 5, 5, 7, 9}) small.record(v);  // population sd 2
+  EXPECT_DOUBLE_EQ(small.summarize().sd, 2.0);
+
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> normal(200'000.0, 20'000.0);
+  LatencyHistogram h;
+  std::vector<double> values;
+  for (int i = 0; i < 50'000; ++i) {
+    const auto v = static_cast<std::int64_t>(normal(rng));
+    values.push_back(static_cast<double>(v));
+    h.record(v);
+  }
+  double mean = 0.0;
+  for (double v : values) mean += v;
+  mean /= static_cast<double>(values.size());
+  double squares = 0.0;
+  for (double v : values) squares += (v - mean) * (v - mean);
+  const double exact = std::sqrt(squares / static_cast<double>(values.size()));
+  EXPECT_NEAR(h.summarize().sd, exact, exact * 0.05);
+  LatencyHistogram one;
+  one.record(123'456);
+  EXPECT_EQ(one.summarize().sd, 0.0);
 }
 
 TEST(LatencyHistogram, BucketsListNonEmptyAscending) {

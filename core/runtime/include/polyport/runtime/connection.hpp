@@ -77,6 +77,11 @@ class Connection {
   // Push mode: time spent in the target's sink (for a foreign model, its SDK's write), which
   // latency() does not include.
   const LatencyHistogram& sink_time() const noexcept { return sink_time_; }
+  // t_out - t_source, for samples whose model stamps their source (a DDS writer's source
+  // timestamp, a CAN frame's kernel receive time; both moved onto CLOCK_MONOTONIC): the
+  // transfer from the source component to this connection's reader or sink, polyport's own
+  // time included. Empty when the source model gives no stamp.
+  const LatencyHistogram& transit() const noexcept { return transit_; }
 
  private:
   DataOutPort& source_;
@@ -99,6 +104,7 @@ class Connection {
   LatencyHistogram latency_;
   LatencyHistogram age_;
   LatencyHistogram sink_time_;
+  LatencyHistogram transit_;
 };
 
 }  // namespace polyport

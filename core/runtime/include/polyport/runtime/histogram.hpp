@@ -24,6 +24,9 @@ class LatencyHistogram {
     std::int64_t min = 0;
     std::int64_t max = 0;
     double mean = 0.0;
+    // Standard deviation from the buckets (each counted at its midpoint, clamped to the
+    // observed min and max), so within the buckets' resolution.
+    double sd = 0.0;
     std::int64_t p50 = 0;
     std::int64_t p90 = 0;
     std::int64_t p99 = 0;
