@@ -5,13 +5,16 @@
 //   HW.wheel_speeds --> Control.wheel_speeds   Control.voltages --> HW.voltages
 //
 // HWComp stands in for the chair's DSP and IO boards: it simulates the motors and the chair
-// (steering.hpp) and plays a scripted joystick. The math lives in steering.cpp so that the
+// (steering.hpp) and plays a scripted joystick. HWCanComp is the HW side of a chair whose
+// boards are on CAN (real, or wheelchair_sim): it relays their frames, decoded by a CAN proxy,
+// and sends the voltages back (profiles/wheelchair_can_native.xml). The math lives in steering.cpp so that the
 // tests close the same loop without the engine.
 //
 // Threading and memory: each component's hooks run on its execution context's thread (or
 // the control thread while it is stopped), one at a time. All state is in members, sized at
 // construction; onExecute does not allocate. Port payloads are copied by value.
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <string>
 #include <string_view>
@@ -179,10 +182,67 @@ class HWComp final : public ComponentBase {
   MotorVoltages voltages_;  // zero until the first reading; then the last one received
 };
 
+// The CAN driver side of the real chair: the boards' frames arrive through a CAN proxy (the
+// socketcan model decodes them with config/types/wheelchair_can.dbc) and go on to Joystick
+// and Control; Control's voltages go back out to the bus. Each period it forwards the newest
+// of everything. The motor voltages go out only once Control has sent some, so the boards
+// see the controller appear rather than a stream of zeros from start-up.
+class HWCanComp final : public ComponentBase {
+ public:
+  ReturnCode onInitialize() override { return read_geometry(*this, geometry_) ? ReturnCode::ok : ReturnCode::bad_parameter; }
+
+  ReturnCode onActivated() override {
+    joystick_ = {};
+    encoders_ = {};
+    voltages_ = {};
+    have_voltages_ = false;
+    periods_ = 0;
+    return ReturnCode::ok;
+  }
+
+  ReturnCode onExecute() override {
+    read_latest(joystick_in_, joystick_);
+    read_latest(encoders_in_, encoders_);
+    MotorVoltages voltages = voltages_;
+    const Status status = voltages_in_.read(voltages);
+    if (status == Status::ok || status == Status::old_data) {
+      voltages_ = voltages;
+      have_voltages_ = true;
+    }
+    ++periods_;
+    joystick_out_.write(joystick_);
+    WheelSpeeds speeds;
+    speeds.left_rad_s = encoders_.left_rad_s;
+    speeds.right_rad_s = encoders_.right_rad_s;
+    speeds.steering_deg = realised_steering_deg(encoders_.left_rad_s, encoders_.right_rad_s, geometry_);
+    speeds.heading_deg = 0.0;  // the encoders do not give it
+    speeds.time_s = static_cast<double>(periods_) * step_seconds(*this);
+    speeds_out_.write(speeds);
+    if (have_voltages_) motors_out_.write(voltages_);
+    return ReturnCode::ok;
+  }
+
+ private:
+  InPort<JoystickPosition> joystick_in_{*this, "joystick_frame"};
+  InPort<EncoderSpeeds> encoders_in_{*this, "encoders"};
+  InPort<MotorVoltages> voltages_in_{*this, "voltages"};
+  OutPort<JoystickPosition> joystick_out_{*this, "joystick"};
+  OutPort<WheelSpeeds> speeds_out_{*this, "wheel_speeds"};
+  OutPort<MotorVoltages> motors_out_{*this, "motor_voltages"};
+  ChairGeometry geometry_;
+  JoystickPosition joystick_;
+  EncoderSpeeds encoders_;
+  MotorVoltages voltages_;
+  bool have_voltages_ = false;
+  std::int64_t periods_ = 0;
+};
+
 }  // namespace polyport::wheelchair
 
 using polyport::wheelchair::ControlComp;
+using polyport::wheelchair::HWCanComp;
 using polyport::wheelchair::HWComp;
 using polyport::wheelchair::JoystickComp;
 
-POLYPORT_COMPONENTS(POLYPORT_COMPONENT(JoystickComp), POLYPORT_COMPONENT(ControlComp), POLYPORT_COMPONENT(HWComp))
+POLYPORT_COMPONENTS(POLYPORT_COMPONENT(JoystickComp), POLYPORT_COMPONENT(ControlComp), POLYPORT_COMPONENT(HWComp),
+                    POLYPORT_COMPONENT(HWCanComp))
