@@ -1,0 +1,159 @@
+#!/usr/bin/python3
+"""Runs the wheelchair suite's configurations, one after the other, where vcan0 exists (in
+the vcan guest: scripts/bench_wheelchair.sh starts it). For each configuration it starts
+polyportd and the configuration's programs, waits until each says it runs, then runs the
+bus simulator for the scenario, stops everything and keeps what each wrote:
+
+  OUT/<config>/sim_trace.csv, sim.json     the simulator's trace and figures
+  OUT/<config>/<process>.json              each program's summary
+  OUT/<config>/polyportd.json              polyportd's statistics (--stats-json)
+  OUT/<config>/cpu.json                    CPU seconds of every process (from /proc)
+  OUT/<config>/*.log                       their stderr
+
+report.py turns a run folder into the JSON, the table and the plots. Exit status 0 when every
+configuration produced a full trace; 1 otherwise (the failing step is printed)."""
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
+
+
+def progress(text):
+    print(f"[wheelchair] {text}", flush=True)
+
+
+def cpu_seconds(pid):
+    """utime + stime of a live process, all its threads."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS
+    except (OSError, IndexError, ValueError):
+        return None
+
+
+class Process:
+    def __init__(self, name, argv, log_path, env):
+        self.name = name
+        self.log_path = log_path
+        self.log = open(log_path, "w")
+        self.popen = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=self.log, stderr=subprocess.STDOUT, env=env)
+
+    def wait_for(self, text, deadline):
+        while time.monotonic() < deadline:
+            with open(self.log_path) as f:
+                if text in f.read():
+                    return True
+            if self.popen.poll() is not None:
+                return False
+            time.sleep(0.05)
+        return False
+
+    def stop(self, timeout_s=10.0):
+        """SIGINT, then SIGKILL after timeout_s; returns the exit status."""
+        if self.popen.poll() is None:
+            self.popen.send_signal(signal.SIGINT)
+            try:
+                self.popen.wait(timeout=timeout_s)
+            except subprocess.TimeoutExpired:
+                self.popen.kill()
+                self.popen.wait()
+        self.log.close()
+        return self.popen.returncode
+
+    def tail(self, lines=15):
+        with open(self.log_path) as f:
+            return "".join(f.readlines()[-lines:])
+
+
+def run_config(name, config, args, out_dir):
+    folder = os.path.join(out_dir, name)
+    os.makedirs(folder, exist_ok=True)
+    env = dict(os.environ)
+    env.setdefault("CYCLONEDDS_URI", "file://" + os.path.join(ROOT, "config", "cyclonedds-loopback.xml"))
+    bin_dir = args.bin
+    started = []
+    ok = True
+    try:
+        for p in config.get("processes", []):
+            argv = [a.replace("{bin}", bin_dir).replace("{root}", ROOT) for a in p["argv"]]
+            argv += ["--summary", os.path.join(folder, p["name"] + ".json")]
+            proc = Process(p["name"], argv, os.path.join(folder, p["name"] + ".log"), env)
+            started.append(proc)
+            if not proc.wait_for(p.get("ready", "running"), time.monotonic() + args.start_timeout):
+                progress(f"{name}: {p['name']} did not start:\n{proc.tail()}")
+                return False
+        if config.get("profile"):
+            argv = [os.path.join(bin_dir, "polyportd"), "run", "--admin-socket", "none", "--stats-json",
+                    os.path.join(folder, "polyportd.json"), os.path.join(ROOT, config["profile"])]
+            proc = Process("polyportd", argv, os.path.join(folder, "polyportd.log"), env)
+            started.append(proc)
+            if not proc.wait_for(" running ", time.monotonic() + args.start_timeout):
+                progress(f"{name}: polyportd did not start:\n{proc.tail()}")
+                return False
+        progress(f"{name}: {', '.join(p.name for p in started)} up; simulator runs {args.duration} s")
+        sim_argv = [os.path.join(bin_dir, "wheelchair_sim"), "--if", args.interface, "--duration-s", str(args.duration),
+                    "--trace", os.path.join(folder, "sim_trace.csv"), "--summary", os.path.join(folder, "sim.json")]
+        if args.scenario:
+            sim_argv += ["--scenario", args.scenario]
+        sim = Process("sim", sim_argv, os.path.join(folder, "sim.log"), env)
+        try:
+            status = sim.popen.wait(timeout=args.duration + args.start_timeout + 30)
+        except subprocess.TimeoutExpired:
+            sim.popen.kill()
+            status = "timed out"
+        sim.log.close()
+        if status != 0:
+            progress(f"{name}: simulator failed ({status}):\n{sim.tail()}")
+            ok = False
+        cpu = {p.name: cpu_seconds(p.popen.pid) for p in started}
+        with open(os.path.join(folder, "cpu.json"), "w") as f:
+            json.dump(cpu, f)
+    finally:
+        for proc in reversed(started):
+            status = proc.stop()
+            if status not in (0, -signal.SIGINT):
+                progress(f"{name}: {proc.name} exited with {status}:\n{proc.tail()}")
+                ok = False
+    progress(f"{name}: {'done' if ok else 'FAILED'}")
+    return ok
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", required=True, help="the run folder to fill")
+    parser.add_argument("--bin", default=os.path.join(ROOT, "build", "bin"), help="where the programs are")
+    parser.add_argument("--configurations", default=os.path.join(ROOT, "benchmarks", "wheelchair", "configurations.json"))
+    parser.add_argument("--only", default="", help="comma-separated configuration names (default: all)")
+    parser.add_argument("--duration", type=float, default=12.0, help="seconds of scenario per configuration")
+    parser.add_argument("--scenario", default="", help="the simulator's scenario (default: its own)")
+    parser.add_argument("--interface", default="vcan0")
+    parser.add_argument("--start-timeout", type=float, default=20.0)
+    args = parser.parse_args()
+
+    with open(args.configurations) as f:
+        configurations = {k: v for k, v in json.load(f).items() if not k.startswith("_")}
+    names = [n for n in args.only.split(",") if n] or list(configurations)
+    unknown = [n for n in names if n not in configurations]
+    if unknown:
+        parser.error(f"unknown configuration {', '.join(unknown)} (known: {', '.join(configurations)})")
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "run.json"), "w") as f:
+        json.dump({"configurations": {n: configurations[n] for n in names}, "duration_s": args.duration,
+                   "scenario": args.scenario, "environment": os.environ.get("VCAN_RUN_IN", "host")}, f, indent=1)
+    failed = [n for i, n in enumerate(names, 1) if not (progress(f"configuration {i}/{len(names)}: {n}") or
+                                                          run_config(n, configurations[n], args, args.out))]
+    if failed:
+        progress(f"failed: {', '.join(failed)}")
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

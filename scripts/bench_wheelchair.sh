@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# The wheelchair benchmark suite, run by hand (never a test; benchmarks/wheelchair/README.md):
+# builds polyportd, the bus simulator and the DDS programs, runs every configuration of
+# benchmarks/wheelchair/configurations.json against the simulator on vcan0 (inside
+# scripts/vcan-run: the user-mode Linux guest where the host kernel has no vcan), then writes
+# benchmarks/results/wheelchair-<UTC stamp>.{json,md} and the -steering / -latency PNGs.
+#
+#   scripts/bench_wheelchair.sh [--duration S] [--only native_a,mixed] [--scenario "..."]
+#     --duration S   seconds of scenario per configuration (default 12: 1200 periods)
+#     --only NAMES   some configurations (default: all)
+#     --scenario T   the simulator's stick ("time_s:angle_deg:magnitude; ...")
+# Environment: POLYPORT_BUILD_DIR (default build), POLYPORT_JOBS (2).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build="${POLYPORT_BUILD_DIR:-build}"
+if [ ! -f "$build/CMakeCache.txt" ]; then
+  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+fi
+echo "[wheelchair] building polyportd, wheelchair_sim, wheelchair_dds_node"
+cmake --build "$build" -j "${POLYPORT_JOBS:-2}" --target polyportd polyport_wheelchair wheelchair_sim wheelchair_dds_node
+run_dir="$(mktemp -d /tmp/polyport-wheelchair.XXXXXX)"
+trap 'rm -rf "$run_dir"' EXIT
+rc=0
+scripts/vcan-run --timeout 900 --rw "$run_dir" -- \
+  /usr/bin/python3 benchmarks/wheelchair/run_configs.py --out "$run_dir" --bin "$(cd "$build/bin" && pwd)" "$@" || rc=$?
+# The report also covers a partly failed run: what did run is worth the numbers.
+/usr/bin/python3 benchmarks/wheelchair/report.py "$run_dir"
+exit "$rc"

@@ -1,0 +1,105 @@
+#!/usr/bin/python3
+"""The wheelchair suite's pieces work (benchmarks/wheelchair): not a benchmark, no timing bar.
+
+  wheelchair_suite_test.py check BIN      every configuration's profile passes `polyportd
+                                          check` and its programs exist (host, no CAN)
+  wheelchair_suite_test.py run BIN        a short run of every configuration against the bus
+                                          simulator produces a full trace in which the
+                                          controller commanded the motors and the chair
+                                          drove; the report turns it into its JSON and table
+                                          (in the vcan guest: needs vcan0)
+
+Exit 0 when it holds, 1 with the reason otherwise."""
+import csv
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SUITE = os.path.join(ROOT, "benchmarks", "wheelchair")
+DURATION_S = 1.5
+PERIOD_S = 0.01
+# The stick goes forward at 0.2 s, turns at 0.8 s: both inside a short run.
+SCENARIO = "0:0:0; 0.2:0:0.6; 0.8:20:0.6"
+
+
+def configurations():
+    with open(os.path.join(SUITE, "configurations.json")) as f:
+        return {k: v for k, v in json.load(f).items() if not k.startswith("_")}
+
+
+def check(bin_dir):
+    problems = []
+    for name, config in configurations().items():
+        if config.get("profile"):
+            r = subprocess.run([os.path.join(bin_dir, "polyportd"), "check", os.path.join(ROOT, config["profile"])],
+                               capture_output=True, text=True)
+            if r.returncode != 0:
+                problems.append(f"{name}: polyportd check {config['profile']} exited {r.returncode}:\n{r.stdout}{r.stderr}")
+        for p in config.get("processes", []):
+            program = p["argv"][0].replace("{bin}", bin_dir)
+            if not os.access(program, os.X_OK):
+                problems.append(f"{name}: program {program} ({p['name']}) is not built")
+        if "joystick_to_control" not in config:
+            problems.append(f"{name}: says nowhere where Joystick -> Control is measured")
+    for p in problems:
+        print(p)
+    print(f"checked {len(configurations())} configurations: {len(problems)} problems")
+    return 1 if problems else 0
+
+
+def run(bin_dir):
+    problems = []
+    with tempfile.TemporaryDirectory() as out:
+        r = subprocess.run(["/usr/bin/python3", os.path.join(SUITE, "run_configs.py"), "--out", out, "--bin", bin_dir,
+                            "--duration", str(DURATION_S), "--scenario", SCENARIO])
+        if r.returncode != 0:
+            problems.append(f"run_configs.py exited {r.returncode}")
+        expected = round(DURATION_S / PERIOD_S)
+        for name in configurations():
+            try:
+                with open(os.path.join(out, name, "sim_trace.csv")) as f:
+                    rows = list(csv.DictReader(f))
+            except OSError as e:
+                problems.append(f"{name}: no trace ({e})")
+                continue
+            if len(rows) != expected:
+                problems.append(f"{name}: {len(rows)} trace rows, expected {expected}")
+                continue
+            commanded = sum(int(row["voltage_frames"]) for row in rows)
+            speed = float(rows[-1]["left_rad_s"]) + float(rows[-1]["right_rad_s"])
+            turn = float(rows[-1]["left_rad_s"]) - float(rows[-1]["right_rad_s"])
+            if commanded < expected // 2:
+                problems.append(f"{name}: only {commanded} motor-voltage frames in {expected} periods")
+            if speed <= 1.0:
+                problems.append(f"{name}: the chair did not drive (left + right {speed:.3f} rad/s at the end)")
+            if turn <= 0.1:
+                problems.append(f"{name}: the chair did not turn right (left - right {turn:.3f} rad/s at the end)")
+        results = os.path.join(out, "results")
+        r = subprocess.run(["/usr/bin/python3", os.path.join(SUITE, "report.py"), out, "--results", results, "--no-plots"],
+                           capture_output=True, text=True)
+        if r.returncode != 0:
+            problems.append(f"report.py exited {r.returncode}: {r.stderr}")
+        else:
+            reports = [f for f in os.listdir(results) if f.endswith(".json")]
+            with open(os.path.join(results, reports[0])) as f:
+                report = json.load(f)
+            for name in configurations():
+                c = report["configurations"].get(name)
+                if c is None or c["trace_periods"] != expected:
+                    problems.append(f"{name}: missing from the report or short")
+                elif not (c["joystick_to_control_ns"] or {}).get("count"):
+                    problems.append(f"{name}: no Joystick -> Control latency measured ({c['joystick_to_control_source']})")
+    for p in problems:
+        print(p)
+    print(f"ran {len(configurations())} configurations: {len(problems)} problems")
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3 or sys.argv[1] not in ("check", "run"):
+        print(__doc__)
+        sys.exit(2)
+    sys.exit(check(sys.argv[2]) if sys.argv[1] == "check" else run(sys.argv[2]))
