@@ -350,6 +350,7 @@ void Engine::stats(nlohmann::json& out) const {
                      {"missed_periods", context->missed_periods()},
                      {"realtime", context->realtime_applied()},
                      {"pinned", context->pinned()},
+                     {"timer_slack_ns", context->timer_slack_ns()},
                      {"wake_jitter_ns", to_json(context->wake_jitter().summarize())},
                      {"cycle_time_ns", to_json(context->cycle_time().summarize())}};
     for (Lifecycle* member : context->members()) j["members"].push_back(member->component().instance_name());

@@ -5,6 +5,7 @@
 
 #include <linux/futex.h>
 #include <pthread.h>
+#include <sys/prctl.h>
 #include <sched.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -124,6 +125,11 @@ void ExecutionContext::sleep_until(MonoTime deadline) {
 }
 
 void ExecutionContext::run() {
+  // The kernel may defer a sleeping thread's wake-up by its timer slack (50 us by default) to
+  // batch wake-ups; a periodic context wants its deadline, so it asks for the minimum.
+  if (prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL) == 0) {
+    timer_slack_ns_.store(prctl(PR_GET_TIMERSLACK, 0UL, 0UL, 0UL, 0UL), std::memory_order_relaxed);
+  }
   MonoTime deadline = mono_now();
   while (!stop_requested_.load(std::memory_order_acquire)) {
     if (command_pending_.load(std::memory_order_acquire)) apply_pending_command();

@@ -141,6 +141,7 @@ TEST(ExecutionContext, RunsHooksOnItsOwnThreadAtItsPeriod) {
   EXPECT_EQ(ec.command(l, LifecycleCommand::activate), ReturnCode::ok);
   ASSERT_TRUE(eventually([&] { return l.executions() >= 20; }));
   EXPECT_NE(c.execute_thread, std::this_thread::get_id());
+  EXPECT_EQ(ec.timer_slack_ns(), 1);  // its thread asked for the minimum slack
 
   EXPECT_EQ(ec.command(l, LifecycleCommand::deactivate), ReturnCode::ok);
   const std::uint64_t executions = l.executions();

@@ -65,6 +65,9 @@ class ExecutionContext {
   const LatencyHistogram& wake_jitter() const noexcept { return jitter_; }   // wake - deadline
   const LatencyHistogram& cycle_time() const noexcept { return cycle_time_; }
   bool realtime_applied() const noexcept { return realtime_applied_; }
+  // The thread's timer slack once it runs (the context asks for 1 ns); -1 before, or when the
+  // kernel refused.
+  long timer_slack_ns() const noexcept { return timer_slack_ns_.load(std::memory_order_relaxed); }
   bool pinned() const noexcept { return pinned_; }
 
  private:
@@ -96,6 +99,7 @@ class ExecutionContext {
   LatencyHistogram jitter_;
   LatencyHistogram cycle_time_;
   bool realtime_applied_ = false;
+  std::atomic<long> timer_slack_ns_{-1};
   bool pinned_ = false;
 };
 
