@@ -65,7 +65,10 @@ def joystick_to_control(folder, config):
         if c is None:
             return None, None, "polyportd statistics missing"
         share = c.get(how["polyport_share"]) if "polyport_share" in how else None
-        return c.get(how["histogram"]), share, f"polyportd {how['connection']}, {how['histogram']}"
+        source = f"polyportd {how['connection']}, {how['histogram']}"
+        if how["histogram"] not in c:
+            source += " (not recorded" + (f": {how['note']}" if "note" in how else "") + ")"
+        return c.get(how["histogram"]), share, source
     return None, None, "not measured"
 
 

@@ -144,6 +144,11 @@ def main():
     if unknown:
         parser.error(f"unknown configuration {', '.join(unknown)} (known: {', '.join(configurations)})")
     os.makedirs(args.out, exist_ok=True)
+    if os.environ.get("VCAN_RUN_IN") in ("uml", "netns"):
+        # A network of the run's own: loopback up, with the route LCM's default multicast
+        # group needs (DDS on loopback needs lo up as well).
+        subprocess.run("ip link set lo up && ip link set lo multicast on && "
+                       "ip route replace 239.255.76.67/32 dev lo", shell=True, check=False)
     with open(os.path.join(args.out, "run.json"), "w") as f:
         json.dump({"configurations": {n: configurations[n] for n in names}, "duration_s": args.duration,
                    "scenario": args.scenario, "environment": os.environ.get("VCAN_RUN_IN", "host")}, f, indent=1)

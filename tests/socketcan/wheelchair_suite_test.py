@@ -90,7 +90,7 @@ def run(bin_dir):
                 c = report["configurations"].get(name)
                 if c is None or c["trace_periods"] != expected:
                     problems.append(f"{name}: missing from the report or short")
-                elif not (c["joystick_to_control_ns"] or {}).get("count"):
+                elif not (c["joystick_to_control_ns"] or c["polyport_share_ns"] or {}).get("count"):
                     problems.append(f"{name}: no Joystick -> Control latency measured ({c['joystick_to_control_source']})")
     for p in problems:
         print(p)
