@@ -134,7 +134,7 @@ def host():
 def build(run_dir):
     run = load_json(os.path.join(run_dir, "run.json")) or {}
     configurations = run.get("configurations", {})
-    result = {"suite": "wheelchair", "git_revision": git("rev-parse", "HEAD"), "git_dirty": bool(git("status", "--porcelain")),
+    result = {"suite": "wheelchair", "git_revision": git("rev-parse", "HEAD"), "git_dirty": bool(git("status", "--porcelain", "--untracked-files=no")),
               "host": host(), "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
               "environment": run.get("environment"), "duration_s": run.get("duration_s"),
               "scenario": run.get("scenario") or "wheelchair_sim default", "configurations": {}}
