@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The wheelchair benchmark suite, run by hand (never a test; benchmarks/wheelchair/README.md):
-# builds polyportd, the bus simulator and the DDS programs, runs every configuration of
-# benchmarks/wheelchair/configurations.json against the simulator on vcan0 (inside
-# scripts/vcan-run: the user-mode Linux guest where the host kernel has no vcan), then writes
+# builds polyportd, the bus simulator and the DDS and LCM programs, runs every configuration
+# of benchmarks/wheelchair/configurations.json meant for the guest against the simulator on
+# vcan0 (inside scripts/vcan-run: the user-mode Linux guest where the host kernel has no
+# vcan), then those meant for the host (no CAN, no simulator), then writes
 # benchmarks/results/wheelchair-<UTC stamp>.{json,md} and the -steering / -latency PNGs.
 #
 #   scripts/bench_wheelchair.sh [--duration S] [--only native_a,mixed] [--scenario "..."]
@@ -17,12 +18,15 @@ if [ ! -f "$build/CMakeCache.txt" ]; then
   cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 fi
 echo "[wheelchair] building polyportd, wheelchair_sim, wheelchair_dds_node"
-cmake --build "$build" -j "${POLYPORT_JOBS:-2}" --target polyportd polyport_wheelchair wheelchair_sim wheelchair_dds_node
+cmake --build "$build" -j "${POLYPORT_JOBS:-2}" --target polyportd polyport_wheelchair wheelchair_sim wheelchair_dds_node wheelchair_lcm_joystick
 run_dir="$(mktemp -d /tmp/polyport-wheelchair.XXXXXX)"
 trap 'rm -rf "$run_dir"' EXIT
 rc=0
 scripts/vcan-run --timeout 900 --rw "$run_dir" -- \
   /usr/bin/python3 benchmarks/wheelchair/run_configs.py --out "$run_dir" --bin "$(cd "$build/bin" && pwd)" "$@" || rc=$?
+# The configurations meant for the host (no CAN: their Joystick -> Control hop where clocks
+# are cheap), into the same run folder.
+/usr/bin/python3 benchmarks/wheelchair/run_configs.py --where host --out "$run_dir" --bin "$(cd "$build/bin" && pwd)" "$@" || rc=$?
 # The report also covers a partly failed run: what did run is worth the numbers.
 /usr/bin/python3 benchmarks/wheelchair/report.py "$run_dir"
 exit "$rc"

@@ -97,6 +97,13 @@ def run_config(name, config, args, out_dir):
             if not proc.wait_for(" running ", time.monotonic() + args.start_timeout):
                 progress(f"{name}: polyportd did not start:\n{proc.tail()}")
                 return False
+        if config.get("where", "guest") == "host":
+            progress(f"{name}: {', '.join(p.name for p in started)} up; running {args.duration} s (no simulator)")
+            time.sleep(args.duration)  # the run's length: the programs measure meanwhile
+            cpu = {p.name: cpu_seconds(p.popen.pid) for p in started}
+            with open(os.path.join(folder, "cpu.json"), "w") as f:
+                json.dump(cpu, f)
+            return ok
         progress(f"{name}: {', '.join(p.name for p in started)} up; simulator runs {args.duration} s")
         sim_argv = [os.path.join(bin_dir, "wheelchair_sim"), "--if", args.interface, "--duration-s", str(args.duration),
                     "--trace", os.path.join(folder, "sim_trace.csv"), "--summary", os.path.join(folder, "sim.json")]
@@ -134,12 +141,15 @@ def main():
     parser.add_argument("--duration", type=float, default=12.0, help="seconds of scenario per configuration")
     parser.add_argument("--scenario", default="", help="the simulator's scenario (default: its own)")
     parser.add_argument("--interface", default="vcan0")
+    parser.add_argument("--where", choices=("guest", "host"), default="guest",
+                        help="run the configurations meant for this place (their `where`, default guest)")
     parser.add_argument("--start-timeout", type=float, default=20.0)
     args = parser.parse_args()
 
     with open(args.configurations) as f:
         configurations = {k: v for k, v in json.load(f).items() if not k.startswith("_")}
     names = [n for n in args.only.split(",") if n] or list(configurations)
+    names = [n for n in names if n not in configurations or configurations[n].get("where", "guest") == args.where]
     unknown = [n for n in names if n not in configurations]
     if unknown:
         parser.error(f"unknown configuration {', '.join(unknown)} (known: {', '.join(configurations)})")
@@ -149,9 +159,18 @@ def main():
         # group needs (DDS on loopback needs lo up as well).
         subprocess.run("ip link set lo up && ip link set lo multicast on && "
                        "ip route replace 239.255.76.67/32 dev lo", shell=True, check=False)
-    with open(os.path.join(args.out, "run.json"), "w") as f:
-        json.dump({"configurations": {n: configurations[n] for n in names}, "duration_s": args.duration,
-                   "scenario": args.scenario, "environment": os.environ.get("VCAN_RUN_IN", "host")}, f, indent=1)
+    # run.json collects what ran where, over the guest's and the host's invocation.
+    run_file = os.path.join(args.out, "run.json")
+    try:
+        with open(run_file) as f:
+            run = json.load(f)
+    except (OSError, ValueError):
+        run = {"configurations": {}, "environments": {}}
+    run["configurations"].update({n: configurations[n] for n in names})
+    run["environments"].update({n: os.environ.get("VCAN_RUN_IN", "host") for n in names})
+    run.update({"duration_s": args.duration, "scenario": args.scenario})
+    with open(run_file, "w") as f:
+        json.dump(run, f, indent=1)
     failed = [n for i, n in enumerate(names, 1) if not (progress(f"configuration {i}/{len(names)}: {n}") or
                                                           run_config(n, configurations[n], args, args.out))]
     if failed:

@@ -3,11 +3,13 @@
 
   wheelchair_suite_test.py check BIN      every configuration's profile passes `polyportd
                                           check` and its programs exist (host, no CAN)
-  wheelchair_suite_test.py run BIN        a short run of every configuration against the bus
-                                          simulator produces a full trace in which the
-                                          controller commanded the motors and the chair
+  wheelchair_suite_test.py run BIN        a short run of every guest configuration against
+                                          the bus simulator produces a full trace in which
+                                          the controller commanded the motors and the chair
                                           drove; the report turns it into its JSON and table
                                           (in the vcan guest: needs vcan0)
+  wheelchair_suite_test.py host BIN       a short run of every host configuration (no CAN)
+                                          measures Joystick -> Control, and the report has it
 
 Exit 0 when it holds, 1 with the reason otherwise."""
 import csv
@@ -25,9 +27,10 @@ PERIOD_S = 0.01
 SCENARIO = "0:0:0; 0.2:0:0.6; 0.8:20:0.6"
 
 
-def configurations():
+def configurations(where=None):
     with open(os.path.join(SUITE, "configurations.json")) as f:
-        return {k: v for k, v in json.load(f).items() if not k.startswith("_")}
+        every = {k: v for k, v in json.load(f).items() if not k.startswith("_")}
+    return {k: v for k, v in every.items() if where is None or v.get("where", "guest") == where}
 
 
 def check(bin_dir):
@@ -50,15 +53,15 @@ def check(bin_dir):
     return 1 if problems else 0
 
 
-def run(bin_dir):
+def run(bin_dir, where):
     problems = []
     with tempfile.TemporaryDirectory() as out:
         r = subprocess.run(["/usr/bin/python3", os.path.join(SUITE, "run_configs.py"), "--out", out, "--bin", bin_dir,
-                            "--duration", str(DURATION_S), "--scenario", SCENARIO])
+                            "--duration", str(DURATION_S), "--scenario", SCENARIO, "--where", where])
         if r.returncode != 0:
             problems.append(f"run_configs.py exited {r.returncode}")
         expected = round(DURATION_S / PERIOD_S)
-        for name in configurations():
+        for name in configurations(where) if where == "guest" else []:
             try:
                 with open(os.path.join(out, name, "sim_trace.csv")) as f:
                     rows = list(csv.DictReader(f))
@@ -86,20 +89,22 @@ def run(bin_dir):
             reports = [f for f in os.listdir(results) if f.endswith(".json")]
             with open(os.path.join(results, reports[0])) as f:
                 report = json.load(f)
-            for name in configurations():
+            for name in configurations(where):
                 c = report["configurations"].get(name)
-                if c is None or c["trace_periods"] != expected:
+                if c is None or (where == "guest" and c["trace_periods"] != expected):
                     problems.append(f"{name}: missing from the report or short")
                 elif not (c["joystick_to_control_ns"] or c["polyport_share_ns"] or {}).get("count"):
                     problems.append(f"{name}: no Joystick -> Control latency measured ({c['joystick_to_control_source']})")
     for p in problems:
         print(p)
-    print(f"ran {len(configurations())} configurations: {len(problems)} problems")
+    print(f"ran {len(configurations(where))} {where} configurations: {len(problems)} problems")
     return 1 if problems else 0
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 3 or sys.argv[1] not in ("check", "run"):
+    if len(sys.argv) != 3 or sys.argv[1] not in ("check", "run", "host"):
         print(__doc__)
         sys.exit(2)
-    sys.exit(check(sys.argv[2]) if sys.argv[1] == "check" else run(sys.argv[2]))
+    if sys.argv[1] == "check":
+        sys.exit(check(sys.argv[2]))
+    sys.exit(run(sys.argv[2], "guest" if sys.argv[1] == "run" else "host"))

@@ -2,7 +2,7 @@
 // as a Cyclone DDS program of its own, the benchmark's "native B" configuration: no polyport,
 // types generated from config/types/wheelchair.idl by idlc, the math of steering.hpp.
 //
-//   wheelchair_dds_node --role joystick|control|hw [--period-ms 10] [--if vcan0]
+//   wheelchair_dds_node --role joystick|control|hw|stick [--period-ms 10] [--if vcan0]
 //                       [--summary FILE] [--domain 0]
 //
 // Roles and topics (every reader and writer reliable, keep_last 1, volatile):
@@ -10,6 +10,10 @@
 //             each period drains it, publishes wheelchair/joystick and wheelchair/wheel_speeds,
 //             takes the newest wheelchair/voltages and, once one has come, sends 0x201 with
 //             the latest every period.
+//   stick     no CAN: plays the IO board's side alone for runs on a host without CAN; each
+//             period publishes wheelchair/joystick from the scripted stick (steering.hpp's
+//             default scenario, from the first period) and the wheels at rest on
+//             wheelchair/wheel_speeds (no plant: the loop is open; for latency runs).
 //   joystick  each period: newest wheelchair/joystick -> joystick_to_reference ->
 //             wheelchair/reference.
 //   control   a listener takes wheelchair/reference as samples arrive (logging now minus their
@@ -251,6 +255,29 @@ int run_joystick(const Options& options) {
   return write_summary(options, stats, "") ? kExitOk : kExitFailed;
 }
 
+// ---- Role: stick ---------------------------------------------------------------------------
+
+int run_stick(const Options& options) {
+  const wc::ScenarioParseResult scenario = wc::parse_scenario(wc::kDefaultScenario);
+  Dds dds(options.domain);
+  const dds_entity_t joystick_out = dds.writer(wheelchair_JoystickPosition_desc, kJoystickTopic);
+  const dds_entity_t speeds_out = dds.writer(wheelchair_WheelSpeeds_desc, kWheelSpeedsTopic);
+  if (!dds.ok() || !scenario.ok()) return kExitFailed;
+  announce(options);
+
+  LoopStats stats;
+  run_periodic(options.period_ms, stats, [&] {
+    const double t = static_cast<double>(stats.periods + 1) * options.period_ms / 1000.0;
+    const wc::JoystickPosition p = scenario.scenario.position_at(t);
+    const wheelchair_JoystickPosition stick{p.x, p.y};
+    const wheelchair_WheelSpeeds still{0.0, 0.0, 0.0, 0.0, t};
+    dds_write(joystick_out, &stick);
+    dds_write(speeds_out, &still);
+  });
+  dds.close();
+  return write_summary(options, stats, "") ? kExitOk : kExitFailed;
+}
+
 // ---- Role: control -------------------------------------------------------------------------
 
 // Shared between the reference listener (Cyclone's thread) and the loop.
@@ -448,14 +475,14 @@ int run_hw(const Options& options) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"wheelchair_dds_node: the wheelchair's joystick, control or hw component as a Cyclone DDS program "
+  CLI::App app{"wheelchair_dds_node: the wheelchair's joystick, control or hw component (or a stick player) as a Cyclone DDS program "
                "(configuration from CYCLONEDDS_URI)"};
   app.footer("Exit codes:\n  0  stopped by SIGINT or SIGTERM\n  1  setup failed, or the summary could not be written\n"
              "  2  bad command line\n");
   Options options;
   app.add_option("--role", options.role, "the component this process runs")
       ->required()
-      ->check(CLI::IsMember({"joystick", "control", "hw"}));
+      ->check(CLI::IsMember({"joystick", "control", "hw", "stick"}));
   app.add_option("--period-ms", options.period_ms, "the loop's period, milliseconds")
       ->capture_default_str()
       ->check(CLI::Range(1, 60000));
@@ -471,5 +498,6 @@ int main(int argc, char** argv) {
   stop_on_signals();
   if (options.role == "joystick") return run_joystick(options);
   if (options.role == "control") return run_control(options);
+  if (options.role == "stick") return run_stick(options);
   return run_hw(options);
 }
