@@ -72,64 +72,97 @@ class Process:
             return "".join(f.readlines()[-lines:])
 
 
-def run_config(name, config, args, out_dir):
+def start(name, config, args, out_dir, started):
+    """Starts the configuration's programs and polyportd, each once it says it runs; appends
+    them to `started`. False (with the reason printed) when one did not come up."""
     folder = os.path.join(out_dir, name)
     os.makedirs(folder, exist_ok=True)
     env = dict(os.environ)
     env.setdefault("CYCLONEDDS_URI", "file://" + os.path.join(ROOT, "config", "cyclonedds-loopback.xml"))
     bin_dir = args.bin
-    started = []
+    for p in config.get("processes", []):
+        argv = [a.replace("{bin}", bin_dir).replace("{root}", ROOT) for a in p["argv"]]
+        argv += ["--summary", os.path.join(folder, p["name"] + ".json")]
+        proc = Process(p["name"], argv, os.path.join(folder, p["name"] + ".log"), env)
+        started.append(proc)
+        if not proc.wait_for(p.get("ready", "running"), time.monotonic() + args.start_timeout):
+            progress(f"{name}: {p['name']} did not start:\n{proc.tail()}")
+            return False
+    if config.get("profile"):
+        argv = [os.path.join(bin_dir, "polyportd"), "run", "--admin-socket", "none", "--stats-json",
+                os.path.join(folder, "polyportd.json"), os.path.join(ROOT, config["profile"])]
+        proc = Process("polyportd", argv, os.path.join(folder, "polyportd.log"), env)
+        started.append(proc)
+        if not proc.wait_for(" running ", time.monotonic() + args.start_timeout):
+            progress(f"{name}: polyportd did not start:\n{proc.tail()}")
+            return False
+    return True
+
+
+def record_cpu(name, out_dir, started):
+    with open(os.path.join(out_dir, name, "cpu.json"), "w") as f:
+        json.dump({p.name: cpu_seconds(p.popen.pid) for p in started}, f)
+
+
+def stop(name, started):
     ok = True
+    for proc in reversed(started):
+        status = proc.stop()
+        if status not in (0, -signal.SIGINT):
+            progress(f"{name}: {proc.name} exited with {status}:\n{proc.tail()}")
+            ok = False
+    return ok
+
+
+def run_config(name, config, args, out_dir):
+    """A guest configuration: its programs against the bus simulator for the scenario."""
+    started = []
+    ok = False
     try:
-        for p in config.get("processes", []):
-            argv = [a.replace("{bin}", bin_dir).replace("{root}", ROOT) for a in p["argv"]]
-            argv += ["--summary", os.path.join(folder, p["name"] + ".json")]
-            proc = Process(p["name"], argv, os.path.join(folder, p["name"] + ".log"), env)
-            started.append(proc)
-            if not proc.wait_for(p.get("ready", "running"), time.monotonic() + args.start_timeout):
-                progress(f"{name}: {p['name']} did not start:\n{proc.tail()}")
-                return False
-        if config.get("profile"):
-            argv = [os.path.join(bin_dir, "polyportd"), "run", "--admin-socket", "none", "--stats-json",
-                    os.path.join(folder, "polyportd.json"), os.path.join(ROOT, config["profile"])]
-            proc = Process("polyportd", argv, os.path.join(folder, "polyportd.log"), env)
-            started.append(proc)
-            if not proc.wait_for(" running ", time.monotonic() + args.start_timeout):
-                progress(f"{name}: polyportd did not start:\n{proc.tail()}")
-                return False
-        if config.get("where", "guest") == "host":
-            progress(f"{name}: {', '.join(p.name for p in started)} up; running {args.duration} s (no simulator)")
-            time.sleep(args.duration)  # the run's length: the programs measure meanwhile
-            cpu = {p.name: cpu_seconds(p.popen.pid) for p in started}
-            with open(os.path.join(folder, "cpu.json"), "w") as f:
-                json.dump(cpu, f)
-            return ok
+        if not start(name, config, args, out_dir, started):
+            return False
         progress(f"{name}: {', '.join(p.name for p in started)} up; simulator runs {args.duration} s")
-        sim_argv = [os.path.join(bin_dir, "wheelchair_sim"), "--if", args.interface, "--duration-s", str(args.duration),
+        folder = os.path.join(out_dir, name)
+        sim_argv = [os.path.join(args.bin, "wheelchair_sim"), "--if", args.interface, "--duration-s", str(args.duration),
                     "--trace", os.path.join(folder, "sim_trace.csv"), "--summary", os.path.join(folder, "sim.json")]
         if args.scenario:
             sim_argv += ["--scenario", args.scenario]
-        sim = Process("sim", sim_argv, os.path.join(folder, "sim.log"), env)
+        sim = Process("sim", sim_argv, os.path.join(folder, "sim.log"), os.environ)
         try:
             status = sim.popen.wait(timeout=args.duration + args.start_timeout + 30)
         except subprocess.TimeoutExpired:
             sim.popen.kill()
             status = "timed out"
         sim.log.close()
-        if status != 0:
+        ok = status == 0
+        if not ok:
             progress(f"{name}: simulator failed ({status}):\n{sim.tail()}")
-            ok = False
-        cpu = {p.name: cpu_seconds(p.popen.pid) for p in started}
-        with open(os.path.join(folder, "cpu.json"), "w") as f:
-            json.dump(cpu, f)
+        record_cpu(name, out_dir, started)
     finally:
-        for proc in reversed(started):
-            status = proc.stop()
-            if status not in (0, -signal.SIGINT):
-                progress(f"{name}: {proc.name} exited with {status}:\n{proc.tail()}")
-                ok = False
+        ok = stop(name, started) and ok
     progress(f"{name}: {'done' if ok else 'FAILED'}")
     return ok
+
+
+def run_together(names, configurations, args, out_dir):
+    """Host configurations: all at once (each on DDS domains of its own), so that they share
+    the machine's load, for the duration; no simulator. Returns the names that failed."""
+    started = {n: [] for n in names}
+    up = []
+    try:
+        for n in names:
+            if start(n, configurations[n], args, out_dir, started[n]):
+                up.append(n)
+        progress(f"{', '.join(up)} up together; running {args.duration} s (no simulator)")
+        time.sleep(args.duration)  # the run's length: the programs measure meanwhile
+        for n in up:
+            record_cpu(n, out_dir, started[n])
+    finally:
+        stopped = {n: stop(n, started[n]) for n in names}
+    failed = [n for n in names if n not in up or not stopped[n]]
+    for n in names:
+        progress(f"{n}: {'FAILED' if n in failed else 'done'}")
+    return failed
 
 
 def main():
@@ -171,8 +204,11 @@ def main():
     run.update({"duration_s": args.duration, "scenario": args.scenario})
     with open(run_file, "w") as f:
         json.dump(run, f, indent=1)
-    failed = [n for i, n in enumerate(names, 1) if not (progress(f"configuration {i}/{len(names)}: {n}") or
-                                                          run_config(n, configurations[n], args, args.out))]
+    if args.where == "host":
+        failed = run_together(names, configurations, args, args.out) if names else []
+    else:
+        failed = [n for i, n in enumerate(names, 1) if not (progress(f"configuration {i}/{len(names)}: {n}") or
+                                                              run_config(n, configurations[n], args, args.out))]
     if failed:
         progress(f"failed: {', '.join(failed)}")
         return 1
