@@ -10,7 +10,8 @@
 #     --duration S   seconds of scenario per configuration (default 12: 1200 periods)
 #     --only NAMES   some configurations (default: all)
 #     --scenario T   the simulator's stick ("time_s:angle_deg:magnitude; ...")
-# Environment: POLYPORT_BUILD_DIR (default build), POLYPORT_JOBS (2).
+# Environment: POLYPORT_BUILD_DIR (default build), POLYPORT_JOBS (2), POLYPORT_WHEELCHAIR_RUN_DIR
+# (keep the run's raw files there).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build="${POLYPORT_BUILD_DIR:-build}"
@@ -19,8 +20,16 @@ if [ ! -f "$build/CMakeCache.txt" ]; then
 fi
 echo "[wheelchair] building polyportd, wheelchair_sim, wheelchair_dds_node"
 cmake --build "$build" -j "${POLYPORT_JOBS:-2}" --target polyportd polyport_wheelchair wheelchair_sim wheelchair_dds_node wheelchair_lcm_joystick
-run_dir="$(mktemp -d /tmp/polyport-wheelchair.XXXXXX)"
-trap 'rm -rf "$run_dir"' EXIT
+# The raw files of the run (traces, summaries, logs, polyportd's statistics): kept in
+# POLYPORT_WHEELCHAIR_RUN_DIR when set (report.py DIR rebuilds the report from them),
+# otherwise in a temporary folder that goes at the end.
+if [ -n "${POLYPORT_WHEELCHAIR_RUN_DIR:-}" ]; then
+  run_dir="$POLYPORT_WHEELCHAIR_RUN_DIR"
+  mkdir -p "$run_dir"
+else
+  run_dir="$(mktemp -d /tmp/polyport-wheelchair.XXXXXX)"
+  trap 'rm -rf "$run_dir"' EXIT
+fi
 rc=0
 scripts/vcan-run --timeout 900 --rw "$run_dir" -- \
   /usr/bin/python3 benchmarks/wheelchair/run_configs.py --out "$run_dir" --bin "$(cd "$build/bin" && pwd)" "$@" || rc=$?

@@ -150,7 +150,8 @@ def build(run_dir):
                 for c in stats.get("connections", [])}
         cpu = load_json(os.path.join(folder, "cpu.json")) or {}
         cpu["sim"] = sim.get("cpu_s")
-        periods = sim.get("periods") or 0
+        # Periods of the run: the simulator's, or (host runs, no simulator) the duration's.
+        periods = sim.get("periods") or int(round((run.get("duration_s") or 0) / 0.01))
         result["configurations"][name] = {
             "description": config.get("description", ""),
             "ran_in": run.get("environments", {}).get(name),
