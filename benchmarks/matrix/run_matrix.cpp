@@ -19,9 +19,11 @@
 // pad[8]; }` (and Ping1k) and LCM `bench_lcm::ping16_t { int64_t seq; byte pad[8]; }`. pad maps
 // by name (octet and byte are both unsigned 8-bit); seq is unsigned 64 on one side and signed
 // 64 on the other, which is narrowing both ways, so each DDS <-> LCM connection carries
-// <mapping><field target="seq" source="seq" allow_narrowing="true"/></mapping> (the ping
-// programs' sequence numbers are small and never saturate). Cyclone DDS <-> Fast DDS share the
-// IDL types: a passthrough, no mapping.
+// <mapping><field target="seq" source="seq" allow_narrowing="true"/></mapping>. A narrowed
+// value saturates (docs/PROFILES.md): the ping programs' sequence numbers are from 0 up, and
+// the LCM ping's probes from 2^62 up (they were negative, which saturated at 0 on the way
+// through a DDS pong), so none saturates. Cyclone DDS <-> Fast DDS share the IDL types: a
+// passthrough, no mapping.
 //
 //   bench_matrix OUTPUT.json [ROUNDS [WARMUP]] [options]      (scripts/bench_matrix.sh)
 //     --chunks N, --placements LIST, --cpu N, --keep DIR   as the same-model runners
