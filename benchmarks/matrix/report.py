@@ -131,11 +131,11 @@ def cell_text(pair):
     via = pair["via_polyport_one_way_ns"]
     relay = pair["via_native_relay_one_way_ns"]
     bars = pair["bars"]
-    text = "via %s / %s\nrelay %s / %s\n<=relay+2: %s" % (us(via["p50"]), us(via["p99"]), us(relay["p50"]),
-                                                         us(relay["p99"]), verdict(bars["via_within_relay_plus_2us"]))
+    text = "via %s/%s\nrelay %s/%s\nrelay+2: %s" % (us(via["p50"]), us(via["p99"]), us(relay["p50"]), us(relay["p99"]),
+                                                   verdict(bars["via_within_relay_plus_2us"]))
     if bars["via_within_direct_bound"] is not None:
-        text += "\n<=direct bound: %s%s" % (verdict(bars["via_within_direct_bound"]),
-                                             "" if bars["direct_bound_is_a_bar"] else " (info)")
+        text += "\ndirect: %s%s" % (verdict(bars["via_within_direct_bound"]),
+                                     "" if bars["direct_bound_is_a_bar"] else " (info)")
     return text
 
 
@@ -233,7 +233,7 @@ def heat_map(pairs, png, title):
     sizes = sorted({q["size_bytes"] for q in pairs if q["source"] == "matrix"})
     models = [m for m in ALL_MODELS if m != "inprocess" and any(q["from"] == m for q in pairs)] + ["inprocess"]
     panels = [(pl, sz) for pl in placements for sz in sizes]
-    fig, axes = plt.subplots(len(placements), len(sizes), figsize=(6.5 * len(sizes), 5.6 * len(placements)),
+    fig, axes = plt.subplots(len(placements), len(sizes), figsize=(8.5 * len(sizes), 7.5 * len(placements)),
                              squeeze=False)
     vmax = max(q["via_polyport_one_way_ns"]["p50"] or 0 for q in pairs) / 1000.0
     for (pl, sz), ax in zip(panels, axes.flat):
@@ -256,7 +256,8 @@ def heat_map(pairs, png, title):
         ax.set_yticks(range(len(models)), [LABEL[m] for m in models], fontsize=8)
         ax.set_xlabel("target model (pong)")
         ax.set_ylabel("source model (ping)")
-        ax.set_title("%s, %d B: via polyport p50 / p99 one-way us" % (pl, sz), fontsize=9)
+        ax.set_title("%s, %d B: one-way p50/p99 us; relay+2: via <= relay + 2 us;\ndirect: via <= direct(from) + "
+                     "direct(to) + 2 us" % (pl, sz), fontsize=9)
         fig.colorbar(image, ax=ax, shrink=0.7, label="via polyport median one-way (us)")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
