@@ -1,22 +1,14 @@
 // The Fast DDS side of a cross-model relay (relay.hpp): fastddsgen's C++ types of
-// benchmarks/dds/pingpong.idl, QoS and data sharing as pingpong_fastdds's (reliable,
-// keep-last 10, volatile; POLYPORT_BENCH_FASTDDS_DATA_SHARING=off turns data sharing off);
-// forwards from on_data_available on Fast DDS's receive thread.
+// benchmarks/dds/pingpong.idl, the endpoints of pingpong_fastdds (fastdds_endpoints.hpp:
+// reliable, keep-last 10, volatile; POLYPORT_BENCH_FASTDDS_DATA_SHARING=off turns data
+// sharing off); forwards from on_data_available on Fast DDS's receive thread.
 #pragma once
 
-#include <cstdlib>
 #include <cstring>
-#include <string>
 
-#include <fastdds/dds/domain/DomainParticipant.hpp>
-#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
-#include <fastdds/dds/publisher/DataWriter.hpp>
-#include <fastdds/dds/publisher/Publisher.hpp>
-#include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
-#include <fastdds/dds/subscriber/Subscriber.hpp>
-#include <fastdds/dds/topic/TypeSupport.hpp>
 
+#include "fastdds_endpoints.hpp"
 #include "fastdds_gen/pingpongPubSubTypes.h"
 #include "relay.hpp"
 
@@ -46,30 +38,14 @@ class FastddsSide final : public Writer, public eprosima::fastdds::dds::DataRead
   static constexpr const char* kPong = "pong";
 
   bool open(int domain, const char* writes) {
-    using namespace eprosima::fastdds::dds;
-    participant_ = DomainParticipantFactory::get_instance()->create_participant(domain, PARTICIPANT_QOS_DEFAULT);
-    if (participant_ == nullptr) return false;
-    TypeSupport type(new PubSub());
-    type.register_type(participant_);
-    DataWriterQos qos = DATAWRITER_QOS_DEFAULT;
-    qos.reliability().kind = RELIABLE_RELIABILITY_QOS;
-    qos.history().kind = KEEP_LAST_HISTORY_QOS;
-    qos.history().depth = 10;
-    if (data_sharing_off()) qos.data_sharing().off();
-    writer_ = participant_->create_publisher(PUBLISHER_QOS_DEFAULT)->create_datawriter(topic(writes), qos);
+    participant_ = fastdds::make_participant<PubSub>(domain);
+    writer_ = participant_ != nullptr ? fastdds::make_writer<PubSub>(participant_, writes) : nullptr;
     return writer_ != nullptr;
   }
 
   bool listen(const char* reads, Writer* onward) {
-    using namespace eprosima::fastdds::dds;
     onward_ = onward;
-    DataReaderQos qos = DATAREADER_QOS_DEFAULT;
-    qos.reliability().kind = RELIABLE_RELIABILITY_QOS;
-    qos.history().kind = KEEP_LAST_HISTORY_QOS;
-    qos.history().depth = 10;
-    if (data_sharing_off()) qos.data_sharing().off();
-    return participant_->create_subscriber(SUBSCRIBER_QOS_DEFAULT)
-               ->create_datareader(topic(reads), qos, this, StatusMask::data_available()) != nullptr;
+    return fastdds::make_reader<PubSub>(participant_, reads, this) != nullptr;
   }
 
   bool write(const Fields& fields) override {
@@ -87,20 +63,9 @@ class FastddsSide final : public Writer, public eprosima::fastdds::dds::DataRead
 
   int fd() const { return -1; }
   void handle() {}
-  void close() {
-    participant_->delete_contained_entities();
-    eprosima::fastdds::dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
-  }
+  void close() { fastdds::close(participant_); }
 
  private:
-  static bool data_sharing_off() {
-    const char* setting = std::getenv("POLYPORT_BENCH_FASTDDS_DATA_SHARING");
-    return setting != nullptr && std::string(setting) == "off";
-  }
-  eprosima::fastdds::dds::Topic* topic(const char* name) {
-    return participant_->create_topic(name, PubSub().getName(), eprosima::fastdds::dds::TOPIC_QOS_DEFAULT);
-  }
-
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
   eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
   Writer* onward_ = nullptr;
