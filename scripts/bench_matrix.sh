@@ -15,7 +15,7 @@
 #   scripts/bench_matrix.sh [runner options]   (benchmarks/matrix/run_matrix.cpp lists them,
 #                                               e.g. --placements unpinned --sizes 16)
 # Runs in a private network namespace (needs root), as the LCM benchmark does. With the
-# defaults below (3000 round trips per series, unpinned and on one core) about ten minutes on a
+# defaults below (3000 round trips per series, unpinned and on one core) about five minutes on a
 # 2-core machine.
 # Environment: POLYPORT_BUILD_DIR (default: build; benchmarks are switched on in it),
 # POLYPORT_BENCH_ROUNDS (3000 measured round trips per series), POLYPORT_BENCH_WARMUP (500
