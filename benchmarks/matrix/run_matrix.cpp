@@ -251,8 +251,9 @@ Json not_measured() {
                    "cross-model programs yet. The CAN diagonal is benchmarks/can (bench_pingpong.sh can)"}},
        {{"pairs", "inprocess <-> every model"},
         {"reason", "an in-process component lives inside polyportd: there is no stand-alone ping or pong program of "
-                   "that model, nor a native relay to set beside it (benchmarks/bench_inproc_connection measures "
-                   "the in-process connection alone)"}}});
+                   "that model, nor a native relay to set beside it; and components run periodically (onExecute), so "
+                   "an in-process echo would measure its period (benchmarks/bench_inproc_connection measures the "
+                   "in-process connection alone)"}}});
 }
 
 }  // namespace
