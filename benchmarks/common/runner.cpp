@@ -14,9 +14,12 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cctype>
+#include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <ctime>
 #include <fstream>
 #include <sstream>
@@ -261,16 +264,26 @@ Json five_domains_json(int first) {
 fs::path write_pingpong_app(const fs::path& dir, const std::string& name, const std::string& types_file,
                             const std::string& ping_side, const std::string& pong_side, const std::string& ping_port,
                             const std::string& pong_port) {
+  return write_pingpong_app(dir, name, std::vector<std::string>{types_file}, ping_side, pong_side, ping_port, pong_port,
+                            "");
+}
+
+fs::path write_pingpong_app(const fs::path& dir, const std::string& name, const std::vector<std::string>& types_files,
+                            const std::string& ping_side, const std::string& pong_side, const std::string& ping_port,
+                            const std::string& pong_port, const std::string& mapping) {
   std::ofstream(dir / "PingSide.xml") << ping_side;
   std::ofstream(dir / "PongSide.xml") << pong_side;
-  const auto connection = [](const char* from, const char* to, const std::string& port) {
+  const auto connection = [&](const char* from, const char* to, const std::string& port) {
     return std::string(R"(    <port_connection port_type="data"><source component_name=")") + from + R"(" port_name=")" +
-           port + R"("/><target component_name=")" + to + R"(" port_name=")" + port + "\"/></port_connection>\n";
+           port + R"("/><target component_name=")" + to + R"(" port_name=")" + port + "\"/>" + mapping +
+           "</port_connection>\n";
   };
+  std::string files;
+  for (const std::string& file : types_files) files += "<file>" + file + "</file>";
   std::ofstream(dir / "app.xml") << R"(<?xml version="1.0" encoding="UTF-8"?>
 <application_profile>
   <name>)" << name << R"(</name>
-  <types><file>)" << types_file << R"(</file></types>
+  <types>)" << files << R"(</types>
   <subcomponents>
     <subcomponent><name>a</name><reference>PingSide.xml</reference></subcomponent>
     <subcomponent><name>b</name><reference>PongSide.xml</reference></subcomponent>
@@ -282,27 +295,60 @@ fs::path write_pingpong_app(const fs::path& dir, const std::string& name, const 
   return dir / "app.xml";
 }
 
+std::string pingpong_component(const std::string& name, const std::string& model, const std::string& section,
+                               const std::string& type, const std::string& wire, const std::string& app_publishes,
+                               const std::string& polyport_publishes) {
+  const auto data_port = [&](const std::string& on, const char* usage) {
+    std::string port = on;
+    std::transform(port.begin(), port.end(), port.begin(), [](unsigned char c) { return std::tolower(c); });
+    return "    <data_port><name>" + port + "</name><data_type>" + type + "</data_type><usage>" + usage + "</usage><" +
+           wire + ">" + on + "</" + wire + "></data_port>\n";
+  };
+  return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<component_profile>\n  <name>" + name + "</name>\n  <model>" +
+         model + "</model>\n  " + section + "\n  <ports>\n" + data_port(app_publishes, "output") +
+         data_port(polyport_publishes, "input") + "  </ports>\n</component_profile>\n";
+}
+
+bool private_network(const std::string& group) {
+  if (unshare(CLONE_NEWNET) != 0) {
+    std::fprintf(stderr,
+                 "a private network namespace needs root (CAP_SYS_ADMIN): %s\n"
+                 "run as root, or give %s a route yourself and pass --host-network:\n"
+                 "  ip link set lo multicast on && ip route add %s dev lo\n",
+                 std::strerror(errno), group.c_str(), group.c_str());
+    return false;
+  }
+  const std::string setup = "ip link set lo up && ip link set lo multicast on && ip route add " + group + " dev lo";
+  if (std::system(setup.c_str()) != 0) {
+    std::fprintf(stderr, "cannot give loopback a multicast route (%s)\n", setup.c_str());
+    return false;
+  }
+  return true;
+}
+
 std::optional<std::int64_t> run_case(const Chunking& chunking, const Placement& placement, const fs::path& dir,
                                      const CaseCommands& commands, Json& c) {
   const fs::path stats_file = dir / "polyport-stats.json";
-  const pid_t direct_pong = spawn(commands.direct_pong, dir / "pong-direct.out", placement);
+  const bool direct = !commands.direct_ping.empty();
+  const pid_t direct_pong = direct ? spawn(commands.direct_pong, dir / "pong-direct.out", placement) : -1;
   const pid_t via_pong = spawn(commands.via_pong, dir / "pong-via.out", placement);
   const pid_t relay_pong = spawn(commands.relay_pong, dir / "pong-relay.out", placement);
   const pid_t daemon = spawn({POLYPORTD, "run", commands.app.string(), "-q", "--stats-json", stats_file.string()},
                              dir / "polyportd.out", placement);
   const pid_t relay = spawn(commands.relay, dir / "relay.out", placement);
 
-  std::vector<Path> paths{{"direct", commands.direct_ping, {{"pong", direct_pong}}, {}},
-                          {"via", commands.via_ping, {{"polyportd", daemon}, {"pong", via_pong}}, {}},
+  std::vector<Path> paths{{"via", commands.via_ping, {{"polyportd", daemon}, {"pong", via_pong}}, {}},
                           {"relay", commands.relay_ping, {{"relay", relay}, {"pong", relay_pong}}, {}}};
+  if (direct) paths.insert(paths.begin(), Path{"direct", commands.direct_ping, {{"pong", direct_pong}}, {}});
   run_interleaved(chunking, placement, dir, paths);
   for (pid_t pid : {direct_pong, via_pong, relay_pong, relay}) finish(pid, SIGTERM, 10);
   const int daemon_rc = finish(daemon, SIGINT, 20);
   if (interrupted()) return std::nullopt;
 
-  c["direct"] = paths[0].series.to_json(chunking.chunks);
-  c["via_polyport"] = paths[1].series.to_json(chunking.chunks);
-  c["via_native_relay"] = paths[2].series.to_json(chunking.chunks);
+  const std::size_t via = direct ? 1 : 0;
+  if (direct) c["direct"] = paths[0].series.to_json(chunking.chunks);
+  c["via_polyport"] = paths[via].series.to_json(chunking.chunks);
+  c["via_native_relay"] = paths[via + 1].series.to_json(chunking.chunks);
   return read_polyport_stats(stats_file, daemon_rc, dir / "polyportd.out.err", c);
 }
 

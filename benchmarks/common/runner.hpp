@@ -101,7 +101,7 @@ void run_interleaved(const Chunking& chunking, const Placement& placement, const
 struct CaseCommands {
   std::vector<std::string> direct_ping, via_ping, relay_ping;  // PROGRAM ping DOMAIN SIZE
   std::vector<std::string> direct_pong, via_pong, relay_pong;  // PROGRAM pong DOMAIN SIZE
-  std::vector<std::string> relay;                              // PROGRAM relay DOMAIN_A DOMAIN_B SIZE
+  std::vector<std::string> relay;                              // e.g. PROGRAM relay DOMAIN_A DOMAIN_B SIZE
   fs::path app;                                                // polyportd's application profile
 };
 
@@ -119,11 +119,32 @@ Json five_domains_json(int first);
 fs::path write_pingpong_app(const fs::path& dir, const std::string& name, const std::string& types_file,
                             const std::string& ping_side, const std::string& pong_side, const std::string& ping_port,
                             const std::string& pong_port);
+// The same with the types of several files and `mapping` (a <mapping> element, or empty) on
+// both connections: the application of two models whose types differ.
+fs::path write_pingpong_app(const fs::path& dir, const std::string& name, const std::vector<std::string>& types_files,
+                            const std::string& ping_side, const std::string& pong_side, const std::string& ping_port,
+                            const std::string& pong_port, const std::string& mapping);
+
+// A component profile of the ping-pong benchmarks: `model` with its section `section` (e.g.
+// <dds><domain>3</domain></dds>) and two data ports of `type` on the topics or channels
+// (`wire`: "topic" or "channel") `app_publishes` (an output: the application publishes,
+// polyport reads) and `polyport_publishes` (an input). Each port is named after its topic or
+// channel in lower case ("PING": ping), so that two models' components connect by port name.
+std::string pingpong_component(const std::string& name, const std::string& model, const std::string& section,
+                               const std::string& type, const std::string& wire, const std::string& app_publishes,
+                               const std::string& polyport_publishes);
+
+// Moves the runner into a network namespace of its own (needs root) with loopback up and
+// multicast routed there for `group` (an address or a prefix such as 224.0.0.0/4); its
+// children inherit it, and it disappears with the runner. False (after saying why) when it
+// cannot.
+bool private_network(const std::string& group);
 
 // Runs a case in `dir`: the three series interleaved, then polyportd stopped (SIGINT) for its
 // statistics. Fills c["direct"], c["via_polyport"], c["via_native_relay"] and polyport's own
 // figures (read_polyport_stats); returns the worst in-to-out p99 (-1 without statistics), or
-// nullopt when interrupted.
+// nullopt when interrupted. Without direct_ping (two models: no direct path) there is no
+// direct series and no c["direct"].
 std::optional<std::int64_t> run_case(const Chunking& chunking, const Placement& placement, const fs::path& dir,
                                      const CaseCommands& commands, Json& c);
 

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "cyclone_endpoints.hpp"
 #include "dds/dds.h"
 #include "pingpong.h"
 #include "pingpong_common.hpp"
@@ -31,51 +32,20 @@ struct Endpoints {
   dds_entity_t participant, writer, reader, waitset;
 };
 
-dds_qos_t* endpoint_qos() {
-  dds_qos_t* qos = dds_create_qos();
-  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
-  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 10);
-  return qos;
-}
-
-dds_entity_t make_writer(dds_entity_t participant, const dds_topic_descriptor_t* type, const char* topic) {
-  dds_qos_t* qos = endpoint_qos();
-  const dds_entity_t writer =
-      dds_create_writer(participant, dds_create_topic(participant, type, topic, nullptr, nullptr), qos, nullptr);
-  dds_delete_qos(qos);
-  return writer;
-}
+using bench::cyclone::make_reader;
+using bench::cyclone::make_writer;
 
 // On Cyclone's receive thread: writes every sample taken to the writer `arg` points to, from
 // the loaned sample (pong's echo, the relay's forward).
 void forward(dds_entity_t reader, void* arg) {
   const dds_entity_t writer = *static_cast<const dds_entity_t*>(arg);
-  void* buffers[8] = {};
-  dds_sample_info_t info[8];
-  for (;;) {
-    const dds_return_t n = dds_take(reader, buffers, info, 8, 8);
-    if (n <= 0) return;
-    for (dds_return_t i = 0; i < n; ++i) {
-      if (info[i].valid_data) dds_write(writer, buffers[i]);
-    }
-    dds_return_loan(reader, buffers, n);
-  }
+  bench::cyclone::take_each(reader, [&](const void* sample) { dds_write(writer, sample); });
 }
 
-// `to` (pong, relay): forward() writes there; it must be set and outlive the reader.
-dds_entity_t make_reader(dds_entity_t participant, const dds_topic_descriptor_t* type, const char* topic,
-                         const dds_entity_t* to = nullptr) {
-  dds_qos_t* qos = endpoint_qos();
-  dds_listener_t* listener = nullptr;
-  if (to != nullptr) {
-    listener = dds_create_listener(const_cast<dds_entity_t*>(to));
-    dds_lset_data_available(listener, forward);
-  }
-  const dds_entity_t reader =
-      dds_create_reader(participant, dds_create_topic(participant, type, topic, nullptr, nullptr), qos, listener);
-  if (listener != nullptr) dds_delete_listener(listener);
-  dds_delete_qos(qos);
-  return reader;
+// A reader whose samples forward() writes to `to`, which must be set and outlive the reader.
+dds_entity_t make_forwarding_reader(dds_entity_t participant, const dds_topic_descriptor_t* type, const char* topic,
+                                    dds_entity_t* to) {
+  return make_reader(participant, type, topic, forward, to);
 }
 
 Endpoints open_ping(dds_domainid_t domain, const dds_topic_descriptor_t* type) {
@@ -149,7 +119,7 @@ int pong(dds_domainid_t domain, const dds_topic_descriptor_t* type) {
   const dds_entity_t participant = dds_create_participant(domain, nullptr, nullptr);
   static dds_entity_t echo = 0;  // forward()'s argument: set before the reader exists
   echo = make_writer(participant, type, "pong");
-  make_reader(participant, type, "ping", &echo);
+  make_forwarding_reader(participant, type, "ping", &echo);
   wait_for_stop();
   dds_delete(participant);
   return 0;
@@ -162,8 +132,8 @@ int relay(dds_domainid_t a, dds_domainid_t b, const dds_topic_descriptor_t* type
   static dds_entity_t pong_to_a = 0;
   ping_to_b = make_writer(on_b, type, "ping");
   pong_to_a = make_writer(on_a, type, "pong");
-  make_reader(on_a, type, "ping", &ping_to_b);
-  make_reader(on_b, type, "pong", &pong_to_a);
+  make_forwarding_reader(on_a, type, "ping", &ping_to_b);
+  make_forwarding_reader(on_b, type, "pong", &pong_to_a);
   wait_for_stop();
   dds_delete(on_a);
   dds_delete(on_b);

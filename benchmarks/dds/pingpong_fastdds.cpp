@@ -26,6 +26,7 @@
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
+#include "fastdds_endpoints.hpp"
 #include "pingpong.h"
 #include "pingpongPubSubTypes.h"
 #include "pingpong_common.hpp"
@@ -62,48 +63,10 @@ class Forward final : public DataReaderListener {
   T sample_;
 };
 
-bool data_sharing_off() {
-  const char* setting = std::getenv("POLYPORT_BENCH_FASTDDS_DATA_SHARING");
-  return setting != nullptr && std::string(setting) == "off";
-}
-
-template <class PubSub>
-DomainParticipant* make_participant(int domain) {
-  DomainParticipant* participant =
-      DomainParticipantFactory::get_instance()->create_participant(domain, PARTICIPANT_QOS_DEFAULT);
-  TypeSupport type(new PubSub());
-  type.register_type(participant);
-  return participant;
-}
-
-template <class PubSub>
-DataWriter* make_writer(DomainParticipant* participant, const char* topic) {
-  DataWriterQos qos = DATAWRITER_QOS_DEFAULT;
-  qos.reliability().kind = RELIABLE_RELIABILITY_QOS;
-  qos.history().kind = KEEP_LAST_HISTORY_QOS;
-  qos.history().depth = 10;
-  if (data_sharing_off()) qos.data_sharing().off();
-  Topic* t = participant->create_topic(topic, PubSub().getName(), TOPIC_QOS_DEFAULT);
-  return participant->create_publisher(PUBLISHER_QOS_DEFAULT)->create_datawriter(t, qos);
-}
-
-// `listener` (pong, relay): data-available only; it must outlive the reader.
-template <class PubSub>
-DataReader* make_reader(DomainParticipant* participant, const char* topic, DataReaderListener* listener = nullptr) {
-  DataReaderQos qos = DATAREADER_QOS_DEFAULT;
-  qos.reliability().kind = RELIABLE_RELIABILITY_QOS;
-  qos.history().kind = KEEP_LAST_HISTORY_QOS;
-  qos.history().depth = 10;
-  if (data_sharing_off()) qos.data_sharing().off();
-  Topic* t = participant->create_topic(topic, PubSub().getName(), TOPIC_QOS_DEFAULT);
-  return participant->create_subscriber(SUBSCRIBER_QOS_DEFAULT)
-      ->create_datareader(t, qos, listener, listener != nullptr ? StatusMask::data_available() : StatusMask::none());
-}
-
-void close(DomainParticipant* participant) {
-  participant->delete_contained_entities();
-  DomainParticipantFactory::get_instance()->delete_participant(participant);
-}
+using bench::fastdds::close;
+using bench::fastdds::make_participant;
+using bench::fastdds::make_reader;
+using bench::fastdds::make_writer;
 
 void wait_for_stop() {
   while (!g_stop) {

@@ -64,18 +64,8 @@ using bench::split;
 // model's default, the shipped loopback configuration, which the peers are given too.
 std::string component(const std::string& name, const std::string& model, int domain, const std::string& type,
                       const std::string& app_publishes, const std::string& polyport_publishes) {
-  return R"(<?xml version="1.0" encoding="UTF-8"?>
-<component_profile>
-  <name>)" + name + "</name>\n  <model>" + model + "</model>\n  <dds><domain>" + std::to_string(domain) +
-         R"(</domain></dds>
-  <ports>
-    <data_port><name>)" + app_publishes + "</name><data_type>" + type + "</data_type><usage>output</usage><topic>" +
-         app_publishes + R"(</topic></data_port>
-    <data_port><name>)" + polyport_publishes + "</name><data_type>" + type +
-         "</data_type><usage>input</usage><topic>" + polyport_publishes + R"(</topic></data_port>
-  </ports>
-</component_profile>
-)";
+  return bench::pingpong_component(name, model, "<dds><domain>" + std::to_string(domain) + "</domain></dds>", type,
+                                   "topic", app_publishes, polyport_publishes);
 }
 
 // The via-polyport application: ping A -> B and pong B -> A, passthrough (same type both ends).

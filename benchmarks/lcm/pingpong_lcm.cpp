@@ -95,9 +95,12 @@ int ping(int port, int size, int rounds, int warmup, const char* samples) {
       [](const lcm_recv_buf_t*, const char*, const T* msg, void* user) { *static_cast<std::int64_t*>(user) = msg->seq; },
       &echoed);
   T sample{};
-  // UDP multicast has no discovery: probe (negative sequence numbers) until the path answers.
+  // UDP multicast has no discovery: probe until the path answers, with sequence numbers from
+  // 2^62 up (above any measured one): positive, so that they survive a path through a model
+  // whose seq is unsigned (the cross-model matrix's DDS pong), where polyport saturates a
+  // negative one at 0.
   const std::int64_t deadline = now_ns() + 30'000'000'000;
-  for (std::int64_t probe = -2;; --probe) {
+  for (std::int64_t probe = std::int64_t{1} << 62;; ++probe) {
     sample.seq = probe;
     Generated<T>::publish(lcm, kPing, &sample);
     if (handle_until(lcm, 100, [&] { return echoed == probe; })) break;

@@ -24,15 +24,12 @@
 // root), brings loopback up with multicast and routes 239.255.76.67 there; every child
 // inherits it, and it disappears with the runner, so nothing is added to the host.
 // Threads: one (benchmarks/common/runner.hpp).
-#include <sched.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <optional>
 #include <string>
 #include <vector>
@@ -60,21 +57,15 @@ std::string url_of(int port) { return std::string("udpm://") + kGroup + ":" + st
 // (polyport subscribes), `polyport_publishes` the one polyport publishes.
 std::string component(const std::string& name, int port, const std::string& type, const std::string& app_publishes,
                       const std::string& polyport_publishes) {
-  const auto data_port = [&](const std::string& channel, const char* usage) {
-    return "    <data_port><name>" + channel + "</name><data_type>" + type + "</data_type><usage>" + usage +
-           "</usage><channel>" + channel + "</channel></data_port>\n";
-  };
-  return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<component_profile>\n  <name>" + name +
-         "</name>\n  <model>lcm</model>\n  <lcm><url>" + url_of(port) + "</url></lcm>\n  <ports>\n" +
-         data_port(app_publishes, "output") + data_port(polyport_publishes, "input") +
-         "  </ports>\n</component_profile>\n";
+  return bench::pingpong_component(name, "lcm", "<lcm><url>" + url_of(port) + "</url></lcm>", type, "channel",
+                                   app_publishes, polyport_publishes);
 }
 
 // The via-polyport application: PING A -> B and PONG B -> A, passthrough (same type both ends).
 fs::path write_profiles(const fs::path& dir, const std::string& type, int a, int b) {
   return bench::write_pingpong_app(dir, "lcm_pingpong", POLYPORT_BENCH_LCM_TYPES,
                                    component("PingSide", a, type, "PING", "PONG"),
-                                   component("PongSide", b, type, "PONG", "PING"), "PING", "PONG");
+                                   component("PongSide", b, type, "PONG", "PING"), "ping", "pong");
 }
 
 Json run_lcm_case(const Settings& s, const Placement& placement, int size, int first_port, const fs::path& dir) {
@@ -118,26 +109,6 @@ std::optional<Settings> parse(int argc, char** argv) {
   return s;
 }
 
-// A network namespace of the runner's own with a multicast route on loopback; false (after
-// saying why) when it cannot have one.
-bool private_network() {
-  if (unshare(CLONE_NEWNET) != 0) {
-    std::fprintf(stderr,
-                 "a private network namespace needs root (CAP_SYS_ADMIN): %s\n"
-                 "run as root, or give %s a route yourself and pass --host-network:\n"
-                 "  ip link set lo multicast on && ip route add %s/32 dev lo\n",
-                 std::strerror(errno), kGroup, kGroup);
-    return false;
-  }
-  const std::string setup =
-      std::string("ip link set lo up && ip link set lo multicast on && ip route add ") + kGroup + "/32 dev lo";
-  if (std::system(setup.c_str()) != 0) {
-    std::fprintf(stderr, "cannot give loopback a multicast route (%s)\n", setup.c_str());
-    return false;
-  }
-  return true;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -150,7 +121,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   const Settings& s = *parsed;
-  if (!s.host_network && !private_network()) return 1;
+  if (!s.host_network && !bench::private_network(std::string(kGroup) + "/32")) return 1;
   bench::forward_stop_signals();
   const fs::path dir = bench::work_dir(s.run.keep, "lcm");
 

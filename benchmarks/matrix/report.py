@@ -1,0 +1,296 @@
+#!/usr/bin/python3
+"""Turns a result file of bench_matrix (benchmarks/matrix/run_matrix.cpp) into the cross-model
+matrix:
+
+  RESULTS/matrix-STAMP.json   bench_matrix's file, to which this adds "pairs": for every
+                              ordered pair of models polyport speaks (and every placement and
+                              size), the measured figures and whether each bar holds, or why
+                              the pair was not measured
+  RESULTS/matrix-STAMP.md     the tables: rows source model, columns target model
+  RESULTS/matrix-STAMP.png    the heat map: cell = via polyport median one-way us, annotated
+                              with the native relay's median and whether the bars hold
+
+The CAN diagonal (CAN -> CAN, measured in the vcan guest) comes from the newest
+can_pingpong-*.json in the results directory, a different run: the tables say so. Nothing is
+smoothed or hard-coded: every number comes from those files. Plots use matplotlib (Debian:
+python3-matplotlib); run with /usr/bin/python3.
+
+  /usr/bin/python3 benchmarks/matrix/report.py RESULTS/matrix-STAMP.json"""
+import argparse
+import glob
+import json
+import os
+import sys
+
+ALL_MODELS = ["cyclonedds", "fastdds", "lcm", "can", "inprocess"]
+LABEL = {"cyclonedds": "Cyclone DDS", "fastdds": "Fast DDS", "lcm": "LCM", "can": "CAN", "inprocess": "in-process"}
+# The second bar applies to pairs of these models (issue 11, "Decisions from the DDS round").
+DIRECT_BAR_MODELS = {"cyclonedds", "lcm", "can"}
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def us(ns):
+    return "-" if ns is None else "%.1f" % (ns / 1000.0)
+
+
+def p(case, series, q):
+    return case.get(series, {}).get("one_way_ns", {}).get(q)
+
+
+def cpu_per_message(case, series, role):
+    """The bridging process's CPU time per message: per round trip / 2."""
+    v = case.get(series, {}).get("cpu_per_round_trip_ns", {}).get(role)
+    return None if v is None else v // 2
+
+
+def in_to_out(case):
+    own = case.get("polyport", [])
+    if not own:
+        return None
+    return {"p50_ns": max(c["in_to_out_ns"].get("p50", 0) for c in own),
+            "p99_ns": max(c["in_to_out_ns"].get("p99", 0) for c in own)}
+
+
+def verdict(v):
+    return "n/a" if v is None else ("ok" if v else "MISS")
+
+
+def pair_of(case, source):
+    """One measured pair: the figures and the bars."""
+    t = case.get("targets", {})
+    direct_bar = t.get("direct_bar")
+    same = case["from"] == case["to"]
+    if same and "direct" in case and "via_one_way_p50_ns" in t:
+        # The diagonal's own direct series (same case): 2 x direct + 2 us.
+        d50 = p(case, "direct", "p50")
+        bound = 2 * d50 + 2000
+        direct_bar = {"from_direct_one_way_p50_ns": d50, "to_direct_one_way_p50_ns": d50, "bound_ns": bound,
+                      "via_within": t["via_one_way_p50_ns"] <= bound, "margin_ns": bound - t["via_one_way_p50_ns"],
+                      "is_a_bar": case["from"] in DIRECT_BAR_MODELS}
+    errors = [case[s]["error"] for s in ("direct", "via_polyport", "via_native_relay") if "error" in case.get(s, {})]
+    if "polyport_error" in case:
+        errors.append(case["polyport_error"])
+    return {
+        "from": case["from"], "to": case["to"], "placement": case["placement"], "size_bytes": case["size_bytes"],
+        "measured": True, "source": source,
+        "direct_one_way_ns": {"p50": p(case, "direct", "p50"), "p99": p(case, "direct", "p99")} if same else None,
+        "via_polyport_one_way_ns": {"p50": p(case, "via_polyport", "p50"), "p99": p(case, "via_polyport", "p99")},
+        "via_native_relay_one_way_ns": {"p50": p(case, "via_native_relay", "p50"),
+                                        "p99": p(case, "via_native_relay", "p99")},
+        "cpu_per_message_ns": {"polyportd": cpu_per_message(case, "via_polyport", "polyportd"),
+                               "relay": cpu_per_message(case, "via_native_relay", "relay")},
+        "polyport_in_to_out_ns": in_to_out(case),
+        "bars": {
+            "via_within_relay_plus_2us": t.get("via_within_relay_plus_2us"),
+            "relay_plus_2us_bound_ns": t.get("bound_relay_plus_2us_ns"),
+            "via_within_direct_bound": None if direct_bar is None else direct_bar["via_within"],
+            "direct_bound_is_a_bar": None if direct_bar is None else direct_bar["is_a_bar"],
+            "direct_bound_ns": None if direct_bar is None else direct_bar["bound_ns"],
+            "direct_bound": "2 x direct + 2 us" if same else "direct(from) + direct(to) + 2 us, this run's diagonal",
+        },
+        "errors": errors,
+    }
+
+
+def newest(results, prefix):
+    files = sorted(glob.glob(os.path.join(results, prefix + "-*.json")))
+    return files[-1] if files else None
+
+
+def can_pairs(results):
+    """The CAN diagonal from the newest CAN ping-pong run (another run, in the vcan guest, which
+    has one CPU: shown in every placement's table)."""
+    path = newest(results, "can_pingpong")
+    if path is None:
+        return []
+    with open(path) as f:
+        run = json.load(f)
+    out = []
+    for c in run.get("cases", []):
+        c = dict(c, **{"from": "can", "to": "can"})
+        out.append(pair_of(c, os.path.relpath(path, ROOT)))
+    return out
+
+
+def not_measured(matrix):
+    """Every ordered pair of ALL_MODELS that has no figures, with the reason."""
+    out = []
+    for a in ALL_MODELS:
+        for b in ALL_MODELS:
+            if "inprocess" in (a, b):
+                reason = next(r["reason"] for r in matrix["not_measured"] if r["pairs"].startswith("inprocess"))
+            elif "can" in (a, b) and a != b:
+                reason = next(r["reason"] for r in matrix["not_measured"] if r["pairs"].startswith("can"))
+            else:
+                continue
+            out.append({"from": a, "to": b, "measured": False, "reason": reason})
+    return out
+
+
+def cell_text(pair):
+    via = pair["via_polyport_one_way_ns"]
+    relay = pair["via_native_relay_one_way_ns"]
+    bars = pair["bars"]
+    text = "via %s/%s\nrelay %s/%s\nrelay+2: %s" % (us(via["p50"]), us(via["p99"]), us(relay["p50"]), us(relay["p99"]),
+                                                   verdict(bars["via_within_relay_plus_2us"]))
+    if bars["via_within_direct_bound"] is not None:
+        text += "\ndirect: %s%s" % (verdict(bars["via_within_direct_bound"]),
+                                     "" if bars["direct_bound_is_a_bar"] else " (info)")
+    return text
+
+
+def markdown(matrix, pairs, missing, json_name):
+    h = matrix["host"]
+    s = matrix["settings"]
+    lines = ["# Cross-model latency matrix", "",
+             "Run %s on %s (%s CPUs, %s), git %s; %d measured round trips per series in %d chunks, %d warm-up per "
+             "chunk. One-way = round trip / 2, median / p99 in us. Raw figures: `%s`." % (
+                 matrix["started_utc"], h.get("cpu", "?"), h.get("nproc", "?"), h.get("uname", "?"),
+                 matrix.get("git_revision", "?"), s["round_trips"], s["chunks"], s["warmup_per_chunk"], json_name),
+             "",
+             "Bars (issue 11): via polyport one-way p50 <= native relay p50 + 2 us, same case, every pair; via <= "
+             "direct(from) + direct(to) + 2 us (2 x direct on the diagonal) for Cyclone DDS, LCM and CAN, reported "
+             "as information for Fast DDS. CPU per message: the bridging process's CPU time per round trip / 2.", ""]
+    placements = sorted({q["placement"] for q in pairs if q["source"] == "matrix"})
+    sizes = sorted({q["size_bytes"] for q in pairs if q["source"] == "matrix"})
+    models = [m for m in ALL_MODELS if any(q["from"] == m for q in pairs)]
+    for placement in placements:
+        for size in sizes:
+            lines += ["## %s, %d B: via polyport (relay) median one-way us" % (placement, size), "",
+                      "| from \\ to | " + " | ".join(LABEL[m] for m in models) + " |",
+                      "|---|" + "---|" * len(models)]
+            for a in models:
+                row = []
+                for b in models:
+                    q = find(pairs, placement, a, b, size)
+                    if q is None and a == b == "can":
+                        q = find_any_size(pairs, placement, "can")
+                    if q is None:
+                        row.append("not measured" if not measurable(a, b) else "-")
+                        continue
+                    bars = q["bars"]
+                    mark = verdict(bars["via_within_relay_plus_2us"])
+                    row.append("%s (%s) %s%s" % (us(q["via_polyport_one_way_ns"]["p50"]),
+                                                 us(q["via_native_relay_one_way_ns"]["p50"]), mark,
+                                                 " †" if q["source"] != "matrix" else ""))
+                lines.append("| %s | %s |" % (LABEL[a], " | ".join(row)))
+            lines.append("")
+    can_source = next((q["source"] for q in pairs if q["source"] != "matrix"), None)
+    if can_source is not None:
+        lines += ["† CAN -> CAN: classic CAN (8 data bytes) from `%s`, run in the vcan guest (user-mode Linux, one "
+                  "CPU), not in this run." % can_source, ""]
+    lines += ["## Every measured pair", "",
+              "| placement | from | to | size B | direct p50/p99 | via p50/p99 | relay p50/p99 | via <= relay + 2 | "
+              "direct bound | via <= direct bound | polyportd CPU/msg | relay CPU/msg | in-to-out p50/p99 ns |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for q in pairs:
+        d = q["direct_one_way_ns"] or {}
+        b = q["bars"]
+        own = q["polyport_in_to_out_ns"] or {}
+        direct_verdict = verdict(b["via_within_direct_bound"])
+        if b["via_within_direct_bound"] is not None and not b["direct_bound_is_a_bar"]:
+            direct_verdict += " (info)"
+        lines.append("| %s | %s | %s | %s | %s/%s | %s/%s | %s/%s | %s | %s | %s | %s | %s | %s/%s |" % (
+            q["placement"], LABEL[q["from"]], LABEL[q["to"]], q["size_bytes"], us(d.get("p50")), us(d.get("p99")),
+            us(q["via_polyport_one_way_ns"]["p50"]), us(q["via_polyport_one_way_ns"]["p99"]),
+            us(q["via_native_relay_one_way_ns"]["p50"]), us(q["via_native_relay_one_way_ns"]["p99"]),
+            verdict(b["via_within_relay_plus_2us"]), us(b["direct_bound_ns"]), direct_verdict,
+            us(q["cpu_per_message_ns"]["polyportd"]), us(q["cpu_per_message_ns"]["relay"]),
+            own.get("p50_ns", "-"), own.get("p99_ns", "-")))
+        for e in q["errors"]:
+            lines.append("|  | error: %s |" % e.replace("\n", " ").replace("|", "/")[:300])
+    lines += ["", "## Not measured", ""]
+    reasons = {}
+    for m in missing:
+        reasons.setdefault(m["reason"], []).append("%s -> %s" % (LABEL[m["from"]], LABEL[m["to"]]))
+    for reason, which in reasons.items():
+        lines.append("- %s: %s" % (", ".join(which), reason))
+    return "\n".join(lines) + "\n"
+
+
+def measurable(a, b):
+    return "inprocess" not in (a, b) and not ("can" in (a, b) and a != b)
+
+
+def find(pairs, placement, a, b, size):
+    return next((q for q in pairs if q["placement"] == placement and q["from"] == a and q["to"] == b and
+                 q["size_bytes"] == size), None)
+
+
+def find_any_size(pairs, placement, model):
+    """A diagonal pair of `model` in any size: `placement`'s, else any placement's."""
+    same = [q for q in pairs if q["from"] == model and q["to"] == model]
+    return next((q for q in same if q["placement"] == placement), same[0] if same else None)
+
+
+def heat_map(pairs, png, title):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    placements = sorted({q["placement"] for q in pairs if q["source"] == "matrix"})
+    sizes = sorted({q["size_bytes"] for q in pairs if q["source"] == "matrix"})
+    models = [m for m in ALL_MODELS if m != "inprocess" and any(q["from"] == m for q in pairs)] + ["inprocess"]
+    panels = [(pl, sz) for pl in placements for sz in sizes]
+    fig, axes = plt.subplots(len(placements), len(sizes), figsize=(8.5 * len(sizes), 7.5 * len(placements)),
+                             squeeze=False)
+    vmax = max(q["via_polyport_one_way_ns"]["p50"] or 0 for q in pairs) / 1000.0
+    for (pl, sz), ax in zip(panels, axes.flat):
+        grid = np.full((len(models), len(models)), np.nan)
+        for i, a in enumerate(models):
+            for j, b in enumerate(models):
+                q = find(pairs, pl, a, b, sz) or (find_any_size(pairs, pl, "can") if a == b == "can" else None)
+                if q is not None and q["via_polyport_one_way_ns"]["p50"] is not None:
+                    grid[i, j] = q["via_polyport_one_way_ns"]["p50"] / 1000.0
+                    text = cell_text(q) + ("\n(vcan guest, 8 B)" if q["source"] != "matrix" else "")
+                    dark = grid[i, j] > 0.6 * vmax
+                    ax.text(j, i, text, ha="center", va="center", fontsize=6.5, color="white" if dark else "black")
+                else:
+                    ax.text(j, i, "not\nmeasured" if not measurable(a, b) else "-", ha="center", va="center",
+                            fontsize=7, color="dimgray")
+        cmap = plt.get_cmap("YlOrRd").copy()
+        cmap.set_bad("lightgray")
+        image = ax.imshow(np.ma.masked_invalid(grid), cmap=cmap, vmin=0, vmax=vmax)
+        ax.set_xticks(range(len(models)), [LABEL[m] for m in models], fontsize=8)
+        ax.set_yticks(range(len(models)), [LABEL[m] for m in models], fontsize=8)
+        ax.set_xlabel("target model (pong)")
+        ax.set_ylabel("source model (ping)")
+        ax.set_title("%s, %d B: one-way p50/p99 us; relay+2: via <= relay + 2 us;\ndirect: via <= direct(from) + "
+                     "direct(to) + 2 us" % (pl, sz), fontsize=9)
+        fig.colorbar(image, ax=ax, shrink=0.7, label="via polyport median one-way (us)")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(png, dpi=110)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("matrix_json")
+    parser.add_argument("--results", help="where the CAN ping-pong results are (default: the JSON's directory)")
+    args = parser.parse_args()
+    with open(args.matrix_json) as f:
+        matrix = json.load(f)
+    results = args.results or os.path.dirname(os.path.abspath(args.matrix_json))
+    pairs = [pair_of(c, "matrix") for c in matrix["cases"]]
+    pairs += can_pairs(results)
+    missing = not_measured(matrix)
+    matrix["pairs"] = pairs + missing
+    with open(args.matrix_json, "w") as f:
+        json.dump(matrix, f, indent=2)
+        f.write("\n")
+    stem = os.path.splitext(args.matrix_json)[0]
+    with open(stem + ".md", "w") as f:
+        f.write(markdown(matrix, pairs, missing, os.path.basename(args.matrix_json)))
+    heat_map(pairs, stem + ".png", "polyport cross-model matrix, %s, %s CPUs (%s)" % (
+        matrix["started_utc"], matrix["host"].get("nproc"), matrix["host"].get("cpu")))
+    print("report: %s.md, %s.png; pairs in %s" % (stem, stem, args.matrix_json), file=sys.stderr)
+    misses = [q for q in pairs if q["bars"]["via_within_relay_plus_2us"] is False or
+              (q["bars"]["via_within_direct_bound"] is False and q["bars"]["direct_bound_is_a_bar"])]
+    for q in misses:
+        print("bar missed: %s %s -> %s %d B" % (q["placement"], q["from"], q["to"], q["size_bytes"]), file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

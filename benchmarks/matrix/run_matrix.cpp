@@ -1,0 +1,323 @@
+// The cross-model latency matrix: for every ordered pair A -> B of the host-runnable models
+// (Cyclone DDS, Fast DDS, LCM), a ping program of model A and a pong program of model B (the
+// same-model benchmarks' programs: benchmarks/dds/pingpong_{cyclone,fastdds}.cpp,
+// benchmarks/lcm/pingpong_lcm.cpp), joined
+//   via polyportd: A's ping topic / channel -> B's and B's pong -> A's, from profiles this
+//     runner writes per case (DDS <-> LCM with a <mapping>, see below), and
+//   via a native relay written with the two SDKs alone (relay_<sdk>_<sdk>.cpp, relay.hpp),
+// one-way latency = round trip / 2 (median, p99, pooled over chunks that take turns), for 16 B
+// and 1 KiB payloads, the CPU time per round trip of every process of the path (polyportd's
+// and the relay's: two messages through the bridge per round trip), and polyport's own
+// in-to-out time from its statistics. The diagonal (A = B) is the same-model benchmark's case:
+// direct, via polyportd and via the SDK's own relay program (benchmarks/common/runner.hpp
+// five_domain_commands), run here in the same run so that a cross pair's figures can be set
+// beside both of its models' direct ones. One run, one machine, one JSON file; nothing
+// asserts: the bars are computed and reported (benchmarks/matrix/report.py turns the file into
+// the table and the heat map).
+//
+// Mapping between the models' ping types: DDS `bench::Ping16 { unsigned long long seq; octet
+// pad[8]; }` (and Ping1k) and LCM `bench_lcm::ping16_t { int64_t seq; byte pad[8]; }`. pad maps
+// by name (octet and byte are both unsigned 8-bit); seq is unsigned 64 on one side and signed
+// 64 on the other, which is narrowing both ways, so each DDS <-> LCM connection carries
+// <mapping><field target="seq" source="seq" allow_narrowing="true"/></mapping>. A narrowed
+// value saturates (docs/PROFILES.md): the ping programs' sequence numbers are from 0 up, and
+// the LCM ping's probes from 2^62 up (they were negative, which saturated at 0 on the way
+// through a DDS pong), so none saturates. Cyclone DDS <-> Fast DDS share the IDL types: a
+// passthrough, no mapping.
+//
+//   bench_matrix OUTPUT.json [ROUNDS [WARMUP]] [options]      (scripts/bench_matrix.sh)
+//     --chunks N, --placements LIST, --cpu N, --keep DIR   as the same-model runners
+//                        (benchmarks/common/runner.hpp RunOptions)
+//     --models LIST      cyclonedds,fastdds,lcm (default: all three)
+//     --sizes LIST       16,1024 (default: both)
+//     --pairs all|cross  cross: leave out the diagonal (default: all)
+//     --domain-base N    first DDS domain; each pair takes 5 (default 185)
+//     --port-base N      first LCM port; each pair takes 5 (default 7800)
+//     --host-network     as bench_lcm_pingpong: use the host's network (239.255.76.67 must
+//                        have a route) instead of a private network namespace
+//
+// Network: as the LCM runner, a network namespace of the runner's own (needs root) with
+// loopback up and 239.255.76.67 routed there; the DDS programs use the loopback
+// configurations polyport's DDS models default to (config/cyclonedds-loopback.xml,
+// config/fastdds-loopback.xml), as in the DDS runner.
+// Threads: one (benchmarks/common/runner.hpp).
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "runner.hpp"
+
+namespace {
+
+namespace fs = bench::fs;
+using bench::Json;
+using bench::Placement;
+
+constexpr const char* kLcmGroup = "239.255.76.67";
+
+// What the runner needs of a model: its ping-pong program, types and wire names.
+struct Model {
+  std::string name;
+  std::string program;
+  std::string types_file;
+  bool lcm;
+  std::string type(int size) const {
+    if (lcm) return size == 16 ? "bench_lcm::ping16_t" : "bench_lcm::ping1k_t";
+    return size == 16 ? "bench::Ping16" : "bench::Ping1k";
+  }
+  std::string ping() const { return lcm ? "PING" : "ping"; }
+  std::string pong() const { return lcm ? "PONG" : "pong"; }
+};
+
+const std::vector<Model>& all_models() {
+  static const std::vector<Model> models{{"cyclonedds", PINGPONG_CYCLONE, POLYPORT_BENCH_IDL, false},
+                                         {"fastdds", PINGPONG_FASTDDS, POLYPORT_BENCH_IDL, false},
+                                         {"lcm", PINGPONG_LCM, POLYPORT_BENCH_LCM_TYPES, true}};
+  return models;
+}
+
+const Model& model_named(const std::string& name) {
+  const auto& models = all_models();
+  return *std::find_if(models.begin(), models.end(), [&](const Model& m) { return m.name == name; });
+}
+
+// The native relay program of two different models, which both name in its file name.
+std::string relay_program(const Model& a, const Model& b) {
+  const auto has = [&](const char* name) { return a.name == name || b.name == name; };
+  if (has("cyclonedds") && has("lcm")) return RELAY_CYCLONE_LCM;
+  if (has("fastdds") && has("lcm")) return RELAY_FASTDDS_LCM;
+  return RELAY_CYCLONE_FASTDDS;
+}
+
+struct Settings {
+  bench::RunOptions run;
+  std::vector<std::string> models{"cyclonedds", "fastdds", "lcm"};
+  std::vector<int> sizes{16, 1024};
+  bool cross_only = false;
+  int domain_base = 185;
+  int port_base = 7800;
+  bool host_network = false;
+};
+
+// The five domains (DDS domain ids or LCM ports) of a pair's case.
+struct Domains {
+  int dds, lcm;
+  int of(const Model& m, int k) const { return (m.lcm ? lcm : dds) + k; }
+};
+
+std::string component(const std::string& name, const Model& m, int domain, int size, bool ping_side) {
+  const std::string section = m.lcm ? "<lcm><url>udpm://" + std::string(kLcmGroup) + ":" + std::to_string(domain) +
+                                          "?ttl=0</url></lcm>"
+                                    : "<dds><domain>" + std::to_string(domain) + "</domain></dds>";
+  return bench::pingpong_component(name, m.name, section, m.type(size), m.lcm ? "channel" : "topic",
+                                   ping_side ? m.ping() : m.pong(), ping_side ? m.pong() : m.ping());
+}
+
+// polyportd's application of a case: A's ping side on `a`, B's pong side on `b`.
+fs::path write_profiles(const fs::path& dir, const Model& from, const Model& to, int size, int a, int b) {
+  std::vector<std::string> files{from.types_file};
+  if (to.types_file != from.types_file) files.push_back(to.types_file);
+  const std::string mapping =
+      from.lcm != to.lcm ? R"(<mapping><field target="seq" source="seq" allow_narrowing="true"/></mapping>)" : "";
+  return bench::write_pingpong_app(dir, "matrix_pingpong", files, component("PingSide", from, a, size, true),
+                                   component("PongSide", to, b, size, false), "ping", "pong", mapping);
+}
+
+// The commands of a cross case: via polyportd on domains 0 (A) and 1 (B), via the relay on 2
+// (A) and 3 (B); no direct path.
+bench::CaseCommands cross_commands(const Model& from, const Model& to, const Domains& d, int size) {
+  const std::string sz = std::to_string(size);
+  const auto at = [&](const Model& m, int k) { return std::to_string(d.of(m, k)); };
+  bench::CaseCommands commands;
+  commands.via_ping = {from.program, "ping", at(from, 0), sz};
+  commands.via_pong = {to.program, "pong", at(to, 1), sz};
+  commands.relay_ping = {from.program, "ping", at(from, 2), sz};
+  commands.relay_pong = {to.program, "pong", at(to, 3), sz};
+  commands.relay = {relay_program(from, to), from.name, at(from, 2), at(to, 3), sz};
+  return commands;
+}
+
+Json run_pair(const Settings& s, const Placement& placement, const Model& from, const Model& to, int size,
+              const Domains& d, const fs::path& dir) {
+  fs::create_directories(dir);
+  const bool same = from.name == to.name;
+  Json c{{"placement", placement.name},
+         {"from", from.name},
+         {"to", to.name},
+         {"size_bytes", size},
+         {"loadavg1_at_start", bench::load_average()}};
+  bench::CaseCommands commands;
+  if (same) {
+    commands = bench::five_domain_commands(from.program, d.of(from, 0), size);
+    commands.app = write_profiles(dir, from, to, size, d.of(from, 1), d.of(to, 2));
+    c["domains"] = bench::five_domains_json(d.of(from, 0));
+  } else {
+    commands = cross_commands(from, to, d, size);
+    commands.app = write_profiles(dir, from, to, size, d.of(from, 0), d.of(to, 1));
+    c["domains"] = {{"via_ping", d.of(from, 0)}, {"via_pong", d.of(to, 1)}, {"relay_ping", d.of(from, 2)},
+                    {"relay_pong", d.of(to, 3)}};
+    c["relay_program"] = fs::path(commands.relay[0]).filename().string();
+  }
+  const std::optional<std::int64_t> worst = bench::run_case(s.run.chunking, placement, dir, commands, c);
+  if (!worst) return nullptr;
+  const Json targets = bench::relay_targets(c, *worst);
+  if (!targets.is_null()) c["targets"] = targets;
+  return c;
+}
+
+// The direct one-way p50 of `model` at `size` and `placement` from the diagonal cases of this
+// run, or null.
+Json direct_p50(const Json& cases, const std::string& placement, const std::string& model, int size) {
+  for (const Json& c : cases) {
+    if (c["placement"] == placement && c["from"] == model && c["to"] == model && c["size_bytes"] == size &&
+        c.contains("direct") && c["direct"].contains("one_way_ns")) {
+      return c["direct"]["one_way_ns"]["p50"];
+    }
+  }
+  return nullptr;
+}
+
+// The second bar (issue 11, "Decisions from the DDS round"): via <= 2 x direct + 2 us for
+// Cyclone DDS, LCM and CAN. On the diagonal, direct is the case's own; for a cross pair, whose
+// one-way path is one hop of each model, "2 x direct" becomes direct(A) + direct(B), both from
+// this run's diagonal. A bar where both models are among those three; for a pair with Fast
+// DDS, reported beside the first bar but not a bar.
+void add_direct_bar(Json& c, const Json& cases) {
+  if (!c.contains("targets")) return;
+  Json& t = c["targets"];
+  const auto text = [&](const char* key) { return c[key].get<std::string>(); };
+  const int size = c["size_bytes"].get<int>();
+  const Json a = direct_p50(cases, text("placement"), text("from"), size);
+  const Json b = direct_p50(cases, text("placement"), text("to"), size);
+  if (!a.is_number() || !b.is_number()) {
+    t["direct_bar"] = nullptr;
+    return;
+  }
+  const std::int64_t bound = a.get<std::int64_t>() + b.get<std::int64_t>() + 2000;
+  const std::int64_t v50 = t["via_one_way_p50_ns"].get<std::int64_t>();
+  const auto bar_model = [&](const char* key) { return text(key) == "cyclonedds" || text(key) == "lcm"; };
+  t["direct_bar"] = {{"from_direct_one_way_p50_ns", a},
+                     {"to_direct_one_way_p50_ns", b},
+                     {"bound_ns", bound},
+                     {"via_within", v50 <= bound},
+                     {"margin_ns", bound - v50},
+                     {"is_a_bar", bar_model("from") && bar_model("to")}};
+}
+
+std::optional<Settings> parse(int argc, char** argv) {
+  Settings s;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (s.run.take(argc, argv, i)) continue;
+    if (arg == "--host-network") {
+      s.host_network = true;
+    } else if (i + 1 >= argc) {
+      return std::nullopt;
+    } else if (arg == "--models") {
+      s.models = bench::split(argv[++i]);
+    } else if (arg == "--sizes") {
+      s.sizes.clear();
+      for (const auto& v : bench::split(argv[++i])) s.sizes.push_back(std::atoi(v.c_str()));
+    } else if (arg == "--pairs") {
+      const std::string pairs = argv[++i];
+      if (pairs != "all" && pairs != "cross") return std::nullopt;
+      s.cross_only = pairs == "cross";
+    } else if (arg == "--domain-base") {
+      s.domain_base = std::atoi(argv[++i]);
+    } else if (arg == "--port-base") {
+      s.port_base = std::atoi(argv[++i]);
+    } else {
+      return std::nullopt;
+    }
+  }
+  const bool sizes_ok = std::all_of(s.sizes.begin(), s.sizes.end(), [](int v) { return v == 16 || v == 1024; });
+  const int pairs = static_cast<int>(s.models.size() * s.models.size());
+  if (!s.run.finish() || !sizes_ok || s.models.empty() || !bench::all_known(s.models, {"cyclonedds", "fastdds", "lcm"}) ||
+      s.domain_base < 0 || s.domain_base + 5 * pairs > 232 || s.port_base < 1024 || s.port_base + 5 * pairs > 65535) {
+    return std::nullopt;
+  }
+  return s;
+}
+
+// The pairs polyport speaks but this runner cannot measure on the host, and why.
+Json not_measured() {
+  return Json::array(
+      {{{"pairs", "can <-> cyclonedds, fastdds, lcm"},
+        {"reason", "the host kernel has no CAN; CAN runs only in the vcan guest (scripts/vcan-run), which has no "
+                   "cross-model programs yet. The CAN diagonal is benchmarks/can (bench_pingpong.sh can)"}},
+       {{"pairs", "inprocess <-> every model"},
+        {"reason", "an in-process component lives inside polyportd: there is no stand-alone ping or pong program of "
+                   "that model, nor a native relay to set beside it; and components run periodically (onExecute), so "
+                   "an in-process echo would measure its period (benchmarks/bench_inproc_connection measures the "
+                   "in-process connection alone)"}}});
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::optional<Settings> parsed = parse(argc, argv);
+  if (!parsed) {
+    std::fprintf(stderr,
+                 "usage: %s OUTPUT.json [ROUNDS [WARMUP]] [--chunks N] [--placements unpinned,one-core] [--cpu N]\n"
+                 "       [--models cyclonedds,fastdds,lcm] [--sizes 16,1024] [--pairs all|cross] [--domain-base N]\n"
+                 "       [--port-base N] [--host-network] [--keep DIR]\n",
+                 argv[0]);
+    return 2;
+  }
+  const Settings& s = *parsed;
+  if (!s.host_network && !bench::private_network(std::string(kLcmGroup) + "/32")) return 1;
+  bench::forward_stop_signals();
+  setenv("CYCLONEDDS_URI", "file://" POLYPORT_SOURCE_DIR "/config/cyclonedds-loopback.xml", 1);
+  setenv("FASTRTPS_DEFAULT_PROFILES_FILE", POLYPORT_SOURCE_DIR "/config/fastdds-loopback.xml", 1);
+  const fs::path dir = bench::work_dir(s.run.keep, "matrix");
+
+  const auto t_start = std::chrono::steady_clock::now();
+  Json result = bench::result_header("matrix");
+  Json settings = bench::shared_settings(s.run);
+  settings.update(
+      {{"sizes_bytes", s.sizes},
+       {"models", s.models},
+       {"pairs", s.cross_only ? "cross" : "all"},
+       {"ping_pong_programs", "the same-model benchmarks' (benchmarks/dds, benchmarks/lcm): ping of the row's model, "
+                              "pong of the column's"},
+       {"native_relay", "diagonal: the SDK's own relay program; cross: relay_<sdk>_<sdk> (both SDKs, their generated "
+                        "types, field by field)"},
+       {"mapping", "DDS <-> LCM: seq unsigned 64 <-> signed 64 with allow_narrowing; pad by name"},
+       {"network", s.host_network ? "the host's" : "a private namespace, loopback routes the LCM group"},
+       {"cpu_per_message", "the bridging process's CPU per round trip / 2 (each round trip passes it twice)"},
+       {"bars", "via one-way p50 <= relay one-way p50 + 2 us (every pair, same case); via one-way p50 <= "
+                "direct(A) + direct(B) + 2 us (2 x direct on the diagonal) for pairs of Cyclone DDS and LCM, "
+                "reported for Fast DDS"}});
+  result["settings"] = settings;
+  result["not_measured"] = not_measured();
+  result["cases"] = Json::array();
+
+  bool all_ok = true;
+  for (const std::string& placement_name : s.run.placements) {
+    const Placement placement = s.run.placement(placement_name);
+    int pair = 0;
+    for (const std::string& a : s.models) {
+      for (const std::string& b : s.models) {
+        const Domains d{s.domain_base + 5 * pair, s.port_base + 5 * pair};
+        ++pair;
+        if (s.cross_only && a == b) continue;
+        for (const int size : s.sizes) {
+          if (bench::interrupted()) break;
+          std::fprintf(stderr, "%s %s -> %s %d B ...\n", placement.name.c_str(), a.c_str(), b.c_str(), size);
+          const std::string name = placement.name + "-" + a + "-" + b + "-" + std::to_string(size);
+          Json c = run_pair(s, placement, model_named(a), model_named(b), size, d, dir / name);
+          if (c.is_null()) break;
+          all_ok = all_ok && c.contains("targets");
+          bench::print_case(c, a + "->" + b, bench::relay_verdicts(c));
+          result["cases"].push_back(std::move(c));
+        }
+      }
+    }
+  }
+  for (Json& c : result["cases"]) add_direct_bar(c, result["cases"]);
+  return bench::end_run(result, s.run.output, dir, !s.run.keep.empty(), all_ok, t_start);
+}
