@@ -176,7 +176,9 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
   }
   out << "execution contexts:\n";
   for (const auto& e : graph["execution_contexts"]) {
-    out << "  " << e.value("name", "") << "  period=" << e.value("period_ns", 0) / 1e6 << " ms  members:";
+    out << "  " << e.value("name", "") << "  period=" << e.value("period_ns", 0) / 1e6 << " ms";
+    if (e.value("spin_us", 0) > 0) out << "  spin=" << e.value("spin_us", 0) << " us";
+    out << "  members:";
     for (const auto& m : e["members"]) out << " " << m.get<std::string>();
     out << "\n";
   }

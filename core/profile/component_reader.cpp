@@ -3,6 +3,8 @@
 
 #include "loader.hpp"
 
+#include <cstdio>
+
 namespace polyport::detail {
 
 void Loader::load_component(const fs::path& file, const SourceLocation& referenced_at,
@@ -113,9 +115,11 @@ void Loader::read_execution(const Reporter& report, pugi::xml_node element, Comp
       execution.type = *value;
     }
   }
+  bool period_ok = true;
   if (const auto period = children.one("period")) {
     const std::string text = text_of(period);
     const auto value = parse_decimal(text);
+    period_ok = value && *value > 0.0;
     if (!value || *value < 0.0) {
       report.error_text(period, "bad period " + in_quotes(text) +
                                     ": expected a number of milliseconds, 0 or more");
@@ -165,6 +169,24 @@ void Loader::read_execution(const Reporter& report, pugi::xml_node element, Comp
                                  ": expected an integer from 0 to " + std::to_string(kMaxCpu));
     } else {
       execution.cpu = *value;
+    }
+  }
+  if (const auto spin = children.one("spin_us")) {
+    // Checked against the period only when the period itself was read well and is used.
+    const std::string text = text_of(spin);
+    const auto value = parse_integer<std::int64_t>(text);
+    const double period_us = execution.period_ms * 1000.0;
+    if (!value || *value < 0) {
+      report.error_text(spin, "bad spin_us " + in_quotes(text) +
+                                  ": expected an integer number of microseconds, 0 or more");
+    } else if (is_periodic(execution.type) && period_ok &&
+               static_cast<double>(*value) > period_us) {
+      char period_text[32];
+      std::snprintf(period_text, sizeof period_text, "%.15g", period_us);
+      report.error_text(spin, "spin_us " + std::to_string(*value) + " is longer than the period (" +
+                                  period_text + " us): expected 0 to the period");
+    } else {
+      execution.spin_us = *value;
     }
   }
   if (const auto lifecycle = children.one("lifecycle_type")) {

@@ -184,6 +184,7 @@ const std::vector<ChildRule> kSemanticsRules = {
     {"priority", {"priority"}},
     {"policy", {"policy"}},
     {"cpu", {"cpu_affinity", "cpu"}},
+    {"spin_us", {"spin_us"}},
     {"lifecycle_type", {"lifecycle_type"}},
     {"", {"creation_type", "instance_creation"}},
 };

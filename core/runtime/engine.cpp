@@ -274,7 +274,9 @@ void Engine::describe(nlohmann::json& out) const {
   }
   out["execution_contexts"] = nlohmann::json::array();
   for (const auto& context : executors_.contexts()) {
-    nlohmann::json j{{"name", context->settings().name}, {"period_ns", context->settings().period.count}};
+    nlohmann::json j{{"name", context->settings().name},
+                     {"period_ns", context->settings().period.count},
+                     {"spin_us", context->settings().spin.count / 1000}};
     for (Lifecycle* member : context->members()) j["members"].push_back(member->component().instance_name());
     out["execution_contexts"].push_back(std::move(j));
   }
@@ -351,6 +353,7 @@ void Engine::stats(nlohmann::json& out) const {
                      {"realtime", context->realtime_applied()},
                      {"pinned", context->pinned()},
                      {"timer_slack_ns", context->timer_slack_ns()},
+                     {"spin_us", context->settings().spin.count / 1000},
                      {"wake_jitter_ns", to_json(context->wake_jitter().summarize())},
                      {"cycle_time_ns", to_json(context->cycle_time().summarize())}};
     for (Lifecycle* member : context->members()) j["members"].push_back(member->component().instance_name());

@@ -1,5 +1,5 @@
-// Periodic execution contexts. The thread sleeps to absolute CLOCK_MONOTONIC deadlines;
-// between cycles it applies at most one pending lifecycle command (handed over under a
+// Periodic execution contexts. The thread sleeps to absolute CLOCK_MONOTONIC deadlines (with
+// a spin tail: to that much before them, then spins to them); between cycles it applies at most one pending lifecycle command (handed over under a
 // mutex: the control path, never the data path) and serves queued service calls.
 #include "polyport/runtime/execution_context.hpp"
 
@@ -23,6 +23,8 @@ namespace polyport {
 ExecutionContext::ExecutionContext(ExecutionSettings settings) : settings_(std::move(settings)) {
   // Models refuse periods under kMinPeriod with a diagnostic; this guards the arithmetic.
   if (settings_.period < kMinPeriod) settings_.period = kMinPeriod;
+  if (settings_.spin < Nanos{0}) settings_.spin = Nanos{0};
+  if (settings_.spin > settings_.period) settings_.spin = settings_.period;
 }
 
 ExecutionContext::~ExecutionContext() { stop(); }
@@ -107,9 +109,22 @@ void ExecutionContext::wake() noexcept {
   syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(&wake_word_), FUTEX_WAKE_PRIVATE, INT_MAX, nullptr, nullptr, 0);
 }
 
+namespace {
+
+inline void cpu_pause() noexcept {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#elif defined(__aarch64__)
+  asm volatile("yield" ::: "memory");
+#endif
+}
+
+}  // namespace
+
 void ExecutionContext::sleep_until(MonoTime deadline) {
   // A futex wait with an absolute CLOCK_MONOTONIC deadline (FUTEX_WAIT_BITSET) sleeps as
   // precisely as clock_nanosleep, but a command or stop() can wake it at once.
+  const MonoTime sleep_end = deadline + Nanos{-settings_.spin.count};
   for (;;) {
     const std::uint32_t seen = wake_word_.load(std::memory_order_acquire);
     if (stop_requested_.load(std::memory_order_acquire)) return;
@@ -117,10 +132,16 @@ void ExecutionContext::sleep_until(MonoTime deadline) {
       apply_pending_command();
       continue;
     }
-    if (mono_now() >= deadline) return;
-    const timespec until = to_timespec(deadline);
+    if (mono_now() >= sleep_end) break;
+    const timespec until = to_timespec(sleep_end);
     syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(&wake_word_), FUTEX_WAIT_BITSET_PRIVATE, seen, &until,
             nullptr, FUTEX_BITSET_MATCH_ANY);
+  }
+  // The spin tail (none when spin is 0: sleep_end is the deadline, already reached).
+  while (mono_now() < deadline) {
+    if (stop_requested_.load(std::memory_order_relaxed)) return;
+    if (command_pending_.load(std::memory_order_relaxed)) apply_pending_command();
+    cpu_pause();
   }
 }
 
@@ -163,7 +184,7 @@ ExecutionContext& ExecutionContextPool::shared(const ExecutionSettings& settings
   for (std::size_t i = 0; i < contexts_.size(); ++i) {
     const ExecutionSettings& s = contexts_[i]->settings();
     if (!exclusive_[i] && s.period == settings.period && s.policy == settings.policy &&
-        s.priority == settings.priority && s.cpu == settings.cpu) {
+        s.priority == settings.priority && s.cpu == settings.cpu && s.spin == settings.spin) {
       return *contexts_[i];
     }
   }

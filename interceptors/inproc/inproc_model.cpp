@@ -21,9 +21,13 @@ ExecutionSettings settings_for(const Subcomponent& sub) {
   settings.policy = e.policy;
   settings.priority = e.priority;
   settings.cpu = e.cpu;
+  settings.spin = Nanos{e.spin_us * 1000};
+  // Shared contexts are keyed by period, policy, priority, CPU and spin tail; the name shows
+  // the period and the spin tail.
   settings.name = e.type == ExecutionType::periodic_exclusive
                       ? sub.name
-                      : "ec-" + std::to_string(static_cast<long long>(e.period_ms * 1000)) + "us";
+                      : "ec-" + std::to_string(static_cast<long long>(e.period_ms * 1000)) + "us" +
+                            (e.spin_us > 0 ? "-spin" + std::to_string(e.spin_us) + "us" : "");
   return settings;
 }
 

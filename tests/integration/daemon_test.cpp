@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -185,6 +186,52 @@ TEST(Daemon, CheckPrintsTheResolvedGraph) {
   EXPECT_NE(out.find("data  HW.joystick -> Joystick.position  type=wheelchair::JoystickPosition  policy=data  mode=pull"),
             std::string::npos) << out;
   EXPECT_NE(out.find("members: Joystick Control HW"), std::string::npos) << out;
+}
+
+// The wheelchair with a 200 us spin tail on Joystick only: Joystick gets a context of its own,
+// which check prints and the statistics report.
+TEST(Daemon, ASpinTailGetsAContextOfItsOwnAndIsReported) {
+  const std::string source_dir = POLYPORT_SOURCE_DIR;
+  auto copy_with = [&](const std::string& from, const fs::path& to,
+                       const std::vector<std::pair<std::string, std::string>>& replacements) {
+    std::string text = slurp(from);
+    for (const auto& [old_text, new_text] : replacements) {
+      const auto at = text.find(old_text);
+      ASSERT_NE(at, std::string::npos) << from << ": no " << old_text;
+      text.replace(at, old_text.size(), new_text);
+    }
+    std::ofstream(to) << text;
+  };
+  const fs::path components = scratch("spin-components");
+  fs::create_directories(components);
+  copy_with(source_dir + "/profiles/components/JoystickComp.xml", components / "JoystickComp.xml",
+            {{"<period>10</period>", "<period>10</period><spin_us>200</spin_us>"},
+             {"../../config/types/", source_dir + "/config/types/"}});
+  const fs::path app = scratch("spin_app.xml");
+  copy_with(source_dir + "/profiles/wheelchair_inproc.xml", app,
+            {{"components/JoystickComp.xml", (components / "JoystickComp.xml").string()},
+             {"components/ControlComp.xml", source_dir + "/profiles/components/ControlComp.xml"},
+             {"components/HWComp.xml", source_dir + "/profiles/components/HWComp.xml"}});
+
+  Process check = spawn({"check", app.string()}, "check-spin");
+  EXPECT_EQ(wait_exit(check), 0) << slurp(check.err);
+  const std::string out = slurp(scratch("check-spin.stdout"));
+  EXPECT_NE(out.find("ec-10000us-spin200us  period=10 ms  spin=200 us  members: Joystick\n"), std::string::npos)
+      << out;
+  EXPECT_NE(out.find("ec-10000us  period=10 ms  members: Control HW\n"), std::string::npos) << out;
+
+  const fs::path stats_file = scratch("spin-stats.json");
+  Process run = spawn({"run", app.string(), "--duration", "0.3", "--quiet", "--stats-json", stats_file.string()},
+                      "run-spin");
+  EXPECT_EQ(wait_exit(run), 0) << slurp(run.err);
+  const nlohmann::json stats = nlohmann::json::parse(slurp(stats_file), nullptr, false);
+  ASSERT_TRUE(stats.contains("execution_contexts")) << slurp(stats_file);
+  std::map<std::string, std::int64_t> spin;
+  for (const auto& context : stats["execution_contexts"]) {
+    spin[context.value("name", "")] = context.value("spin_us", -1);
+    EXPECT_GT(context.value("cycles", 0), 0) << context.dump();
+  }
+  EXPECT_EQ(spin, (std::map<std::string, std::int64_t>{{"ec-10000us", 0}, {"ec-10000us-spin200us", 200}}));
 }
 
 TEST(Daemon, SigtermStopsGracefullyAndDurationStopsByItself) {

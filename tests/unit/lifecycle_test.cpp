@@ -132,7 +132,7 @@ TEST(Lifecycle, NamesOfAllThreeModelsAreAccepted) {
 TEST(ExecutionContext, RunsHooksOnItsOwnThreadAtItsPeriod) {
   Recorder c;
   Lifecycle l(c);
-  ExecutionContext ec(ExecutionSettings{"test-ec", Nanos{1'000'000}, SchedPolicy::other, 0, std::nullopt});
+  ExecutionContext ec(ExecutionSettings{"test-ec", Nanos{1'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}});
   ec.add(l);
   std::vector<std::string> warnings;
   ec.start(warnings);
@@ -158,7 +158,7 @@ TEST(ExecutionContext, RefusedRealtimePriorityFallsBackWithAWarning) {
   Lifecycle l(c);
   // Priority 99 under SCHED_FIFO needs CAP_SYS_NICE; either it is granted (and applied) or
   // the context says why not and still runs.
-  ExecutionContext ec(ExecutionSettings{"rt-ec", Nanos{1'000'000}, SchedPolicy::fifo, 99, 0});
+  ExecutionContext ec(ExecutionSettings{"rt-ec", Nanos{1'000'000}, SchedPolicy::fifo, 99, 0, Nanos{0}});
   ec.add(l);
   std::vector<std::string> warnings;
   ec.start(warnings);
@@ -174,10 +174,60 @@ TEST(ExecutionContext, RefusedRealtimePriorityFallsBackWithAWarning) {
   }
 }
 
+TEST(ExecutionContext, SpinTailRunsAtItsPeriodTakesCommandsAndStops) {
+  // A 1 ms spin tail in a 2 ms period, and one that spins the whole period: both still run
+  // their component every cycle, apply commands and stop when asked.
+  for (const Nanos spin : {Nanos{1'000'000}, Nanos{2'000'000}}) {
+    SCOPED_TRACE(spin.count);
+    Recorder c;
+    Lifecycle l(c);
+    ExecutionSettings settings{"spin-ec", Nanos{2'000'000}, SchedPolicy::other, 0, std::nullopt, spin};
+    ExecutionContext ec(settings);
+    EXPECT_EQ(ec.settings().spin, spin);
+    ec.add(l);
+    std::vector<std::string> warnings;
+    ec.start(warnings);
+    EXPECT_EQ(ec.command(l, LifecycleCommand::initialize), ReturnCode::ok);
+    EXPECT_EQ(ec.command(l, LifecycleCommand::activate), ReturnCode::ok);
+    ASSERT_TRUE(eventually([&] { return l.executions() >= 20; }));
+    EXPECT_NE(c.execute_thread, std::this_thread::get_id());
+    EXPECT_EQ(ec.command(l, LifecycleCommand::deactivate), ReturnCode::ok);
+    const std::uint64_t executions = l.executions();
+    const std::uint64_t cycles = ec.cycles();
+    ASSERT_TRUE(eventually([&] { return ec.cycles() >= cycles + 5; }));
+    EXPECT_EQ(l.executions(), executions);
+    ec.stop();
+    EXPECT_FALSE(ec.running());
+    EXPECT_GE(ec.wake_jitter().summarize().count, 20u);
+    EXPECT_EQ(l.state(), LifecycleState::inactive);
+  }
+}
+
+TEST(ExecutionContext, SpinTailIsAtMostThePeriod) {
+  ExecutionContext longer(ExecutionSettings{"a", Nanos{1'000'000}, SchedPolicy::other, 0, std::nullopt,
+                                            Nanos{5'000'000}});
+  EXPECT_EQ(longer.settings().spin, Nanos{1'000'000});
+  ExecutionContext negative(ExecutionSettings{"b", Nanos{1'000'000}, SchedPolicy::other, 0, std::nullopt,
+                                              Nanos{-1}});
+  EXPECT_EQ(negative.settings().spin, Nanos{0});
+}
+
+TEST(ExecutionContextPool, ComponentsWithDifferentSpinTailsDoNotShare) {
+  ExecutionContextPool pool;
+  ExecutionSettings plain{"a", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}};
+  ExecutionSettings spin{"b", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{200'000}};
+  ExecutionSettings more{"c", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{300'000}};
+  EXPECT_NE(&pool.shared(plain), &pool.shared(spin));
+  EXPECT_NE(&pool.shared(spin), &pool.shared(more));
+  EXPECT_EQ(&pool.shared(spin), &pool.shared(spin));
+  EXPECT_EQ(pool.shared(spin).settings().spin, Nanos{200'000});
+  EXPECT_EQ(pool.contexts().size(), 3u);
+}
+
 TEST(ExecutionContextPool, SharesContextsByPeriodAndPriority) {
   ExecutionContextPool pool;
-  ExecutionSettings ten{"a", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt};
-  ExecutionSettings five{"b", Nanos{5'000'000}, SchedPolicy::other, 0, std::nullopt};
+  ExecutionSettings ten{"a", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}};
+  ExecutionSettings five{"b", Nanos{5'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}};
   EXPECT_EQ(&pool.shared(ten), &pool.shared(ten));
   EXPECT_NE(&pool.shared(ten), &pool.shared(five));
   EXPECT_NE(&pool.exclusive(ten), &pool.shared(ten));

@@ -780,6 +780,47 @@ TEST_F(ProfileAliases, PassiveAndAperiodicMayHaveNoPeriod) {
   }
 }
 
+TEST_F(ProfileAliases, SpinTail) {
+  auto profile = load_component("  <execution_semantics><period>1</period></execution_semantics>\n");
+  ASSERT_TRUE(profile.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_EQ(profile->execution.spin_us, 0);  // off by default
+  profile = load_component(
+      "  <execution_semantics><period>1</period><spin_us> 1000 </spin_us></execution_semantics>\n");
+  ASSERT_TRUE(profile.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_EQ(profile->execution.spin_us, 1000);  // up to the whole period
+  // A passive component has no period to spin before: accepted, not used.
+  profile = load_component(
+      "  <execution_semantics><type>passive</type><spin_us>50000</spin_us></execution_semantics>\n");
+  ASSERT_TRUE(profile.has_value()) << ::testing::PrintToString(messages());
+}
+
+TEST_F(ProfileAliases, SpinTailErrors) {
+  // The text's place, or the element's when it has none.
+  for (const auto& [text, column] : std::vector<std::pair<std::string, std::string>>{
+           {"-5", "33"}, {"2.5", "33"}, {"fast", "33"}, {"", "24"}}) {
+    SCOPED_TRACE(text);
+    EXPECT_FALSE(load_component("  <execution_semantics><spin_us>" + text +
+                                "</spin_us></execution_semantics>\n")
+                     .has_value());
+    EXPECT_EQ(messages(), (std::vector<std::string>{
+        "Comp.xml:4:" + column + ": /component_profile/execution_semantics/spin_us: bad spin_us '" + text +
+        "': expected an integer number of microseconds, 0 or more"}));
+  }
+  EXPECT_FALSE(load_component("  <execution_semantics><period>2.5</period><spin_us>2501</spin_us>"
+                              "</execution_semantics>\n")
+                   .has_value());
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      "Comp.xml:4:53: /component_profile/execution_semantics/spin_us: spin_us 2501 is longer than "
+      "the period (2500 us): expected 0 to the period"}));
+  // A bad period is reported once; the spin tail is not checked against it.
+  EXPECT_FALSE(load_component("  <execution_semantics><period>ten</period><spin_us>20000</spin_us>"
+                              "</execution_semantics>\n")
+                   .has_value());
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      "Comp.xml:4:32: /component_profile/execution_semantics/period: bad period 'ten': expected a "
+      "number of milliseconds, 0 or more"}));
+}
+
 TEST_F(ProfileAliases, SchedulingPolicies) {
   const std::vector<std::pair<std::string, SchedPolicy>> cases = {
       {"SCHED_OTHER", SchedPolicy::other}, {"SCHED_FIFO", SchedPolicy::fifo},

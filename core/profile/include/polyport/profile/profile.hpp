@@ -60,6 +60,9 @@ struct ExecutionSemantics {
   int priority = 0;                 // SCHED_FIFO / SCHED_RR priority when policy asks for it
   SchedPolicy policy = SchedPolicy::other;
   std::optional<int> cpu;           // pin the execution context's thread to this CPU
+  // polyport: the execution context sleeps until this long before each deadline, then spins
+  // on the clock until the deadline (0: no spin tail). At most the period.
+  std::int64_t spin_us = 0;
   SourceLocation where;
 };
 

@@ -4,6 +4,11 @@
 // each cycle took, and overruns (a cycle that ended past the next deadline; missed periods
 // are skipped, not run back-to-back).
 //
+// With a spin tail (ExecutionSettings::spin > 0) the thread sleeps only until that long before
+// each deadline, then spins on CLOCK_MONOTONIC (with a pause instruction) until the deadline,
+// still applying commands and seeing stop(): the wake-up no longer depends on how late the
+// kernel wakes a sleeper, at the cost of a busy core for the tail of every period.
+//
 // Lifecycle commands for a component that belongs to a running context are executed by the
 // context's thread between cycles, so every hook of a component runs on one thread.
 #pragma once
@@ -33,6 +38,7 @@ struct ExecutionSettings {
   SchedPolicy policy = SchedPolicy::other;
   int priority = 0;
   std::optional<int> cpu;
+  Nanos spin{0};  // the spin tail before each deadline; 0: sleep all the way
 };
 
 class ExecutionContext {
@@ -104,7 +110,7 @@ class ExecutionContext {
 };
 
 // Owns every execution context of an application. Periodic components with the same period,
-// scheduling policy, priority and CPU share one context (as OPRoS executors do), in the order
+// scheduling policy, priority, CPU and spin tail share one context (as OPRoS executors do), in the order
 // they were added; `periodic-exclusive` ones get their own.
 class ExecutionContextPool {
  public:
