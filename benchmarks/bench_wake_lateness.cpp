@@ -11,13 +11,18 @@
 // is summarized the same way (percentiles within 1/32 relative, max exact).
 //
 //   bench_wake_lateness OUT.json [--periods N] [--chunks C] [--period-ms P[,P...]] [--spin-us S[,S...]]
+//                                [--fifo PRIORITY]
 //     N  measured periods per case and period (default 1000: 10 s per case at 10 ms)
 //     C  chunks the N periods are split into (default 10)
 //     P  periods in milliseconds (default 10)
 //     S  spin tails in microseconds (default 100,300)
+//     PRIORITY  run every case's thread under SCHED_FIFO at this priority (default: SCHED_OTHER);
+//               refused (no CAP_SYS_NICE) is an error, not a silent fallback
 //
 // Threads: the main thread starts and stops each case and polls its cycle count; the plain
 // loop and each context run on their own thread, one case at a time.
+#include <pthread.h>
+#include <sched.h>
 #include <sys/prctl.h>
 
 #include <algorithm>
@@ -57,8 +62,19 @@ struct Case {
   long timer_slack_ns = -1;
 };
 
+int fifo_priority = 0;  // 0: SCHED_OTHER
+bool fifo_refused = false;
+
 // `periods` wakes of a clock_nanosleep loop at `period`, after one unmeasured cycle.
 void plain_loop(Case& c, std::uint64_t periods) {
+  if (fifo_priority > 0) {
+    sched_param param{};
+    param.sched_priority = fifo_priority;
+    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
+      fifo_refused = true;
+      return;
+    }
+  }
   prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
   c.timer_slack_ns = prctl(PR_GET_TIMERSLACK, 0UL, 0UL, 0UL, 0UL);
   MonoTime deadline = mono_now();
@@ -83,6 +99,7 @@ void run_chunk(Case& c, std::uint64_t periods) {
   const std::uint64_t target = c.context->cycles() + periods + 1;
   c.context->start(warnings);
   for (const auto& w : warnings) std::cerr << w << "\n";
+  if (fifo_priority > 0 && !c.context->realtime_applied()) fifo_refused = true;
   // Polled at most every period (and every 20 ms), so a chunk overshoots by a cycle or two.
   const auto poll = std::chrono::nanoseconds(std::min<std::int64_t>(c.period.count, 20'000'000));
   while (c.context->cycles() < target) std::this_thread::sleep_for(poll);
@@ -134,6 +151,8 @@ int main(int argc, char** argv) {
       period_ms = parse_list(value);
     } else if (option == "--spin-us") {
       spin_us = parse_list(value);
+    } else if (option == "--fifo") {
+      fifo_priority = std::stoi(value);
     } else {
       std::cerr << "unknown option " << option << "\n";
       return 2;
@@ -166,6 +185,10 @@ int main(int argc, char** argv) {
       settings.name = "bench-ec";
       settings.period = period;
       settings.spin = c->spin;
+      if (fifo_priority > 0) {
+        settings.policy = polyport::SchedPolicy::fifo;
+        settings.priority = fifo_priority;
+      }
       c->context = std::make_unique<ExecutionContext>(settings);
       cases.push_back(std::move(c));
     }
@@ -176,6 +199,10 @@ int main(int argc, char** argv) {
     for (auto& c : cases) {
       if (bench::interrupted()) break;
       run_chunk(*c, per_chunk);
+      if (fifo_refused) {
+        std::cerr << "SCHED_FIFO priority " << fifo_priority << " refused: no result written\n";
+        return 1;
+      }
     }
     std::cerr << "chunk " << chunk + 1 << "/" << chunks << " done\n";
   }
@@ -193,7 +220,9 @@ int main(int argc, char** argv) {
                          "wake - deadline on CLOCK_MONOTONIC, ns; the ExecutionContext's own wake-jitter "
                          "histogram (what polyportd reports), the plain loop recorded into the same kind "
                          "of histogram: percentiles within 1/32 relative, min and max exact"},
-                        {"scheduling", "SCHED_OTHER, unpinned, timer slack 1 ns in every case"}};
+                        {"scheduling", (fifo_priority > 0 ? "SCHED_FIFO priority " + std::to_string(fifo_priority)
+                                                          : std::string("SCHED_OTHER")) +
+                                           ", unpinned, timer slack 1 ns in every case"}};
   double load[3] = {0, 0, 0};
   getloadavg(load, 3);
   result["host"]["loadavg_at_end"] = {load[0], load[1], load[2]};

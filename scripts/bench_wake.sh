@@ -5,8 +5,9 @@
 # defaults and of ExecutionContexts with spin tails, taking turns in chunks (README.md,
 # "Benchmarks"; benchmarks/bench_wake_lateness.cpp).
 #
-#   scripts/bench_wake.sh [--periods N] [--chunks C] [--period-ms P[,P...]] [--spin-us S[,S...]]
-#     defaults: 1000 periods per case (10 s each at 10 ms), 10 chunks, 10 ms, spin 100,300 us
+#   scripts/bench_wake.sh [--periods N] [--chunks C] [--period-ms P[,P...]] [--spin-us S[,S...]] [--fifo PRIO]
+#     defaults: 1000 periods per case (10 s each at 10 ms), 10 chunks, 10 ms, spin 100,300 us,
+#     SCHED_OTHER (--fifo PRIO: every case under SCHED_FIFO at PRIO; needs CAP_SYS_NICE)
 # Environment: POLYPORT_BUILD_DIR (default: build; benchmarks are switched on in it),
 # POLYPORT_JOBS (2).
 #
