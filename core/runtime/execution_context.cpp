@@ -137,7 +137,8 @@ void ExecutionContext::sleep_until(MonoTime deadline) {
     syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(&wake_word_), FUTEX_WAIT_BITSET_PRIVATE, seen, &until,
             nullptr, FUTEX_BITSET_MATCH_ANY);
   }
-  // The spin tail (none when spin is 0: sleep_end is the deadline, already reached).
+  if (settings_.spin.count == 0) return;  // sleep_end was the deadline
+  // The spin tail: the clock, a pause instruction, and commands and stop as above.
   while (mono_now() < deadline) {
     if (stop_requested_.load(std::memory_order_relaxed)) return;
     if (command_pending_.load(std::memory_order_relaxed)) apply_pending_command();
