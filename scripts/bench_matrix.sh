@@ -25,48 +25,26 @@
 # processes; an interrupted run writes no result.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/bench_common.sh
 build="${POLYPORT_BUILD_DIR:-build}"
 rounds="${POLYPORT_BENCH_ROUNDS:-3000}"
 warmup="${POLYPORT_BENCH_WARMUP:-500}"
 chunks="${POLYPORT_BENCH_CHUNKS:-4}"
 
 echo "== building bench_matrix in $build" >&2
-if ! grep -qs '^POLYPORT_BUILD_BENCHMARKS:BOOL=ON$' "$build/CMakeCache.txt"; then
-  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPOLYPORT_BUILD_BENCHMARKS=ON >/dev/null
-fi
-if ! cmake --build "$build" -j "${POLYPORT_JOBS:-2}" --target bench_matrix; then
-  echo "bench_matrix did not build; it needs Cyclone DDS, Fast DDS, idlc, fastddsgen, liblcm, lcm-gen and the" \
-       "DDS and LCM models" >&2
-  exit 1
-fi
+bench_build "$build" bench_matrix "Cyclone DDS, Fast DDS, idlc, fastddsgen, liblcm, lcm-gen and the DDS and LCM models"
 if ! /usr/bin/python3 -c 'import matplotlib, numpy' 2>/dev/null; then
   echo "the report needs Debian's python3-matplotlib and python3-numpy (/usr/bin/python3)" >&2
   exit 1
 fi
 
-# Which sources were measured: the commit, and whether tracked files differed from it.
-revision="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
-if [ "$revision" != unknown ] && [ -n "$(GIT_OPTIONAL_LOCKS=0 git status --porcelain --untracked-files=no 2>/dev/null)" ]; then
-  revision="${revision}+dirty"
-fi
-export POLYPORT_GIT_REVISION="$revision"
+bench_revision
 
 mkdir -p benchmarks/results
 out="benchmarks/results/matrix-$(date -u +%Y%m%dT%H%M%SZ).json"
 echo "== running the matrix ($rounds round trips per series in $chunks chunks; one line per case)" >&2
-# In the background so that the traps run while it works (bash runs a trap only once a
-# foreground command has returned).
-"$build/bin/bench_matrix" "$out" "$rounds" "$warmup" --chunks "$chunks" "$@" &
-pid=$!
-stop() {
-  kill -TERM "$pid" 2>/dev/null || true
-  wait "$pid" 2>/dev/null || true
-}
-trap 'stop; exit 130' INT TERM HUP
-trap stop EXIT
-rc=0
-wait "$pid" || rc=$?
-trap - EXIT
+bench_run "$build/bin/bench_matrix" "$out" "$rounds" "$warmup" --chunks "$chunks" "$@"
+rc=$bench_rc
 if [ ! -f "$out" ]; then
   echo "no result written (bench_matrix exited with $rc)" >&2
   exit "$rc"

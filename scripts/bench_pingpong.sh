@@ -21,6 +21,7 @@
 # also die with it if it is killed outright); an interrupted run writes no result.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/bench_common.sh
 model="${1:-}"
 case "$model" in
   dds) needs="Cyclone DDS, Fast DDS, idlc, fastddsgen and both DDS models" ;;
@@ -34,20 +35,9 @@ rounds="${POLYPORT_BENCH_ROUNDS:-10000}"
 warmup="${POLYPORT_BENCH_WARMUP:-1000}"
 runner="bench_${model}_pingpong"
 
-if ! grep -qs '^POLYPORT_BUILD_BENCHMARKS:BOOL=ON$' "$build/CMakeCache.txt"; then
-  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPOLYPORT_BUILD_BENCHMARKS=ON >/dev/null
-fi
-if ! cmake --build "$build" -j "${POLYPORT_JOBS:-2}" --target "$runner"; then
-  echo "$runner did not build; it needs $needs" >&2
-  exit 1
-fi
+bench_build "$build" "$runner" "$needs"
 
-# Which sources were measured: the commit, and whether tracked files differed from it.
-revision="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
-if [ "$revision" != unknown ] && [ -n "$(GIT_OPTIONAL_LOCKS=0 git status --porcelain --untracked-files=no 2>/dev/null)" ]; then
-  revision="${revision}+dirty"
-fi
-export POLYPORT_GIT_REVISION="$revision"
+bench_revision
 
 mkdir -p benchmarks/results
 out="benchmarks/results/${model}_pingpong-$(date -u +%Y%m%dT%H%M%SZ).json"
@@ -59,19 +49,8 @@ if [ "$model" = can ]; then
   export POLYPORT_BENCH_OUTER_HOST
   command=(scripts/vcan-run --interfaces 5 --timeout 3600 -- "${command[@]}")
 fi
-# In the background so that the traps run while it works (bash runs a trap only once a
-# foreground command has returned).
-"${command[@]}" &
-pid=$!
-stop() {
-  kill -TERM "$pid" 2>/dev/null || true
-  wait "$pid" 2>/dev/null || true
-}
-trap 'stop; exit 130' INT TERM HUP
-trap stop EXIT
-rc=0
-wait "$pid" || rc=$?
-trap - EXIT
+bench_run "${command[@]}"
+rc=$bench_rc
 if [ "$rc" -ne 0 ] && [ -f "$out" ]; then
   echo "$out: some cases have no targets (see their error fields)" >&2
 fi

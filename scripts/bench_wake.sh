@@ -14,19 +14,12 @@
 # Ctrl-C or SIGTERM stops it without writing a result.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/bench_common.sh
 build="${POLYPORT_BUILD_DIR:-build}"
 
-if ! grep -qs '^POLYPORT_BUILD_BENCHMARKS:BOOL=ON$' "$build/CMakeCache.txt"; then
-  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPOLYPORT_BUILD_BENCHMARKS=ON >/dev/null
-fi
-cmake --build "$build" -j "${POLYPORT_JOBS:-2}" --target bench_wake_lateness
+bench_build "$build" bench_wake_lateness "only polyport's core"
 
-# Which sources were measured: the commit, and whether tracked files differed from it.
-revision="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
-if [ "$revision" != unknown ] && [ -n "$(GIT_OPTIONAL_LOCKS=0 git status --porcelain --untracked-files=no 2>/dev/null)" ]; then
-  revision="${revision}+dirty"
-fi
-export POLYPORT_GIT_REVISION="$revision"
+bench_revision
 
 mkdir -p benchmarks/results
 out="benchmarks/results/wake_lateness-$(date -u +%Y%m%dT%H%M%SZ).json"
