@@ -66,15 +66,21 @@ class WheelchairCanFrames : public ::testing::Test {
     return out;
   }
 
+  // The hand-packed `payload` of `values` is the DBC codec's frame for them, both ways.
+  void expect_same_as_the_codec(const std::string& name, std::uint32_t id, const std::array<double, 2>& values,
+                                const can::Payload& payload) {
+    const auto decoded = decode(name, id, payload);
+    EXPECT_NEAR(decoded[0], values[0], 1e-9) << name;
+    EXPECT_NEAR(decoded[1], values[1], 1e-9) << name;
+    EXPECT_EQ(encode(name, values), payload) << name;
+  }
+
   TypeRegistry types;
 };
 
 TEST_F(WheelchairCanFrames, JoystickFrameDecodesWithTheDbc) {
   const wheelchair::JoystickPosition stick{0.2052, -0.5638};
-  const auto decoded = decode("JoystickPosition", can::kJoystickId, can::pack(stick));
-  EXPECT_NEAR(decoded[0], stick.x, 1e-9);
-  EXPECT_NEAR(decoded[1], stick.y, 1e-9);
-  EXPECT_EQ(encode("JoystickPosition", {stick.x, stick.y}), can::pack(stick));
+  expect_same_as_the_codec("JoystickPosition", can::kJoystickId, {stick.x, stick.y}, can::pack(stick));
   const auto back = can::unpack_joystick(can::pack(stick).data());
   EXPECT_NEAR(back.x, stick.x, 1e-9);
   EXPECT_NEAR(back.y, stick.y, 1e-9);
@@ -82,18 +88,12 @@ TEST_F(WheelchairCanFrames, JoystickFrameDecodesWithTheDbc) {
 
 TEST_F(WheelchairCanFrames, EncoderFrameDecodesWithTheDbc) {
   const wheelchair::EncoderSpeeds speeds{6.184, -4.403};
-  const auto decoded = decode("EncoderSpeeds", can::kEncoderId, can::pack(speeds));
-  EXPECT_NEAR(decoded[0], speeds.left_rad_s, 1e-9);
-  EXPECT_NEAR(decoded[1], speeds.right_rad_s, 1e-9);
-  EXPECT_EQ(encode("EncoderSpeeds", {speeds.left_rad_s, speeds.right_rad_s}), can::pack(speeds));
+  expect_same_as_the_codec("EncoderSpeeds", can::kEncoderId, {speeds.left_rad_s, speeds.right_rad_s}, can::pack(speeds));
 }
 
 TEST_F(WheelchairCanFrames, VoltageFrameDecodesWithTheDbcAndSaturates) {
   const wheelchair::MotorVoltages volts{12.91, -9.22};
-  const auto decoded = decode("MotorVoltages", can::kVoltagesId, can::pack(volts));
-  EXPECT_NEAR(decoded[0], volts.left_v, 1e-9);
-  EXPECT_NEAR(decoded[1], volts.right_v, 1e-9);
-  EXPECT_EQ(encode("MotorVoltages", {volts.left_v, volts.right_v}), can::pack(volts));
+  expect_same_as_the_codec("MotorVoltages", can::kVoltagesId, {volts.left_v, volts.right_v}, can::pack(volts));
   const auto back = can::unpack_voltages(can::pack(volts).data());
   EXPECT_NEAR(back.left_v, volts.left_v, 1e-9);
   // Beyond the 16-bit raw range the hand packing saturates rather than wrapping.
