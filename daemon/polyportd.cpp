@@ -172,6 +172,12 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
     if (c.contains("mode")) out << "  mode=" << c["mode"].get<std::string>();
     if (c.contains("conversion")) out << "  conversion=" << c["conversion"].get<std::string>();
     if (c.contains("max_in_flight")) out << "  max_in_flight=" << c["max_in_flight"];
+    if (c.contains("watchdog")) {
+      const auto& w = c["watchdog"];
+      out << "  watchdog=" << w.value("deadline_ns", 0) / 1e6 << " ms";
+      if (w.contains("max_age_ns")) out << " max_age=" << w.value("max_age_ns", 0) / 1e6 << " ms";
+      if (w.contains("upstream")) out << " upstream=" << w["upstream"].get<std::string>();
+    }
     out << "\n";
   }
   out << "execution contexts:\n";
@@ -260,6 +266,11 @@ void print_final_stats(const nlohmann::json& stats) {
   for (const auto& c : stats["connections"]) {
     spdlog::info("  {}: received {}, delivered {}, dropped {}; latency {}", c.value("name", ""), c.value("received", 0),
                  c.value("delivered", 0), c.value("dropped", 0), histogram_text(c["latency_ns"]));
+    if (c.contains("watchdog")) {
+      const auto& w = c["watchdog"];
+      spdlog::info("    watchdog: {}, {} trips, {} recoveries, {} safe values, {} stale", w.value("state", ""),
+                   w.value("trips", 0), w.value("recoveries", 0), w.value("safe_values", 0), w.value("stale", 0));
+    }
   }
   for (const auto& s : stats["services"]) {
     spdlog::info("  {}: calls {}, ok {}, timeouts {}, errors {}", s.value("name", ""), s.value("calls", 0),
@@ -394,6 +405,13 @@ int run_daemon(const Options& options) {
   }
 
   std::vector<std::string> warnings;
+  engine.set_notifier([](const std::string& message, bool problem) {
+    if (problem) {
+      spdlog::warn("{}", message);
+    } else {
+      spdlog::info("{}", message);
+    }
+  });
   Result<void> started = engine.start(warnings);
   for (const std::string& warning : warnings) spdlog::warn("{}", warning);
   if (!started) {

@@ -56,6 +56,20 @@ std::string Connection::conversion() const {
 
 void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept {
   counters_.received.fetch_add(1, std::memory_order_relaxed);
+  if (watchdog_) {
+    // The source wrote this sample now; what can make it unusable is a silent upstream or
+    // its own age.
+    if (watchdog_->too_old(meta, meta.t_in)) {
+      counters_.dropped_stale.fetch_add(1, std::memory_order_relaxed);
+      watchdog_->counters().stale.fetch_add(1, std::memory_order_relaxed);
+      hand_over_safe(meta);
+      return;
+    }
+    if (!watchdog_->fresh(meta.t_in)) {
+      hand_over_safe(meta);
+      return;
+    }
+  }
   if (!converts_) {
     hand_over(data, meta);
     return;
@@ -95,12 +109,9 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
 
 void Connection::hand_over(const std::byte* data, const SampleMeta& meta) noexcept {
   if (!buffer_) {
-    // polyport's own time ends where the sink (an adaptor, or a foreign SDK's write) begins.
-    const MonoTime handed = mono_now();
-    latency_.record((handed - meta.t_in).count);
-    if (meta.t_source.ns != 0) transit_.record((handed - meta.t_source).count);
-    const Status status = target_.sink()->on_sample(data, meta);
-    sink_time_.record((mono_now() - handed).count);
+    if (watchdog_) watchdog_->enter();
+    const Status status = to_sink(data, meta);
+    if (watchdog_) watchdog_->leave();
     if (status == Status::ok) {
       counters_.delivered.fetch_add(1, std::memory_order_relaxed);
     } else {
@@ -133,14 +144,62 @@ void Connection::hand_over(const std::byte* data, const SampleMeta& meta) noexce
   }
 }
 
+Status Connection::to_sink(const std::byte* data, const SampleMeta& meta) noexcept {
+  // polyport's own time ends where the sink (an adaptor, or a foreign SDK's write) begins.
+  const MonoTime handed = mono_now();
+  latency_.record((handed - meta.t_in).count);
+  if (meta.t_source.ns != 0) transit_.record((handed - meta.t_source).count);
+  const Status status = target_.sink()->on_sample(data, meta);
+  sink_time_.record((mono_now() - handed).count);
+  return status;
+}
+
+// The safe value instead of a sample (already in the target's format: no conversion).
+void Connection::hand_over_safe(const SampleMeta& meta) noexcept {
+  watchdog_->counters().safe_values.fetch_add(1, std::memory_order_relaxed);
+  hand_over(watchdog_->safe_bytes(), SampleMeta{watchdog_->safe_size(), meta.t_in, {}});
+}
+
+bool Connection::emit_safe_value(MonoTime now) noexcept {
+  if (!watchdog_ || buffer_) return false;  // pull-mode readers take it themselves
+  if (!watchdog_->try_enter()) return false;  // a sample is on its way to the sink right now
+  watchdog_->counters().safe_values.fetch_add(1, std::memory_order_relaxed);
+  const Status status = to_sink(watchdog_->safe_bytes(), SampleMeta{watchdog_->safe_size(), now, {}});
+  watchdog_->leave();
+  if (status != Status::ok) counters_.dropped_sink_error.fetch_add(1, std::memory_order_relaxed);
+  return true;
+}
+
 PopResult Connection::take(std::byte* dst, std::uint32_t capacity, SampleMeta& meta) noexcept {
   if (!buffer_) return PopResult::no_data;
+  if (watchdog_ && !watchdog_->fresh(mono_now())) return take_safe(dst, capacity, meta);
   const PopResult result = buffer_->pop(dst, capacity, meta);
   if (result == PopResult::new_data) {
+    if (watchdog_ && watchdog_->too_old(meta, mono_now())) {
+      counters_.dropped_stale.fetch_add(1, std::memory_order_relaxed);
+      watchdog_->counters().stale.fetch_add(1, std::memory_order_relaxed);
+      return take_safe(dst, capacity, meta);
+    }
+    reader_has_safe_ = false;
     counters_.read.fetch_add(1, std::memory_order_relaxed);
     age_.record((mono_now() - meta.t_in).count);
   }
   return result;
+}
+
+// The reader gets the safe value as a new sample once, then as the value it already has
+// (`data`) or nothing new (queues), until samples pass again.
+PopResult Connection::take_safe(std::byte* dst, std::uint32_t capacity, SampleMeta& meta) noexcept {
+  const std::uint32_t size = watchdog_->safe_size();
+  if (size > capacity) return PopResult::too_small;
+  const bool again = reader_has_safe_;
+  if (again && policy_ != QueuePolicy::data) return PopResult::no_data;
+  std::copy_n(watchdog_->safe_bytes(), size, dst);
+  meta = SampleMeta{size, mono_now(), {}};
+  if (again) return PopResult::old_data;
+  reader_has_safe_ = true;
+  watchdog_->counters().safe_values.fetch_add(1, std::memory_order_relaxed);
+  return PopResult::new_data;
 }
 
 }  // namespace polyport

@@ -28,6 +28,13 @@ std::string join(const std::vector<std::string>& items) {
 
 std::string type_name(const Port& port) { return port.type() ? port.type()->name : std::string(); }
 
+nlohmann::json describe_watchdog(const ConnectionWatchdog& watchdog) {
+  nlohmann::json j{{"deadline_ns", watchdog.deadline().count}, {"safe_value_bytes", watchdog.safe_size()}};
+  if (watchdog.max_age().count > 0) j["max_age_ns"] = watchdog.max_age().count;
+  if (watchdog.upstream()) j["upstream"] = watchdog.upstream()->full_name();
+  return j;
+}
+
 }  // namespace
 
 Engine::Engine(const ModelRegistry& models, TypeRegistry& types) : models_(models), types_(types) {}
@@ -59,7 +66,14 @@ bool Engine::build(const ApplicationProfile& profile, Diagnostics& diagnostics) 
       continue;
     }
     auto connected = connect_ports(*source, *target, spec.policy, spec.depth, spec.program);
-    if (!connected) diagnostics.error(spec.where, {}, connected.error().message);
+    if (!connected) {
+      diagnostics.error(spec.where, {}, connected.error().message);
+      continue;
+    }
+    if (spec.watchdog && connected.value()) {
+      auto watched = add_watchdog(*connected.value(), *spec.watchdog);
+      if (!watched) diagnostics.error(spec.watchdog->where, {}, watched.error().message);
+    }
   }
   return !diagnostics.has_errors();
 }
@@ -117,6 +131,38 @@ Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optio
   return &connection;
 }
 
+// The safe value is made once here: the profile's constants in the target's flat layout,
+// encoded in the target's wire format.
+Result<void> Engine::add_watchdog(Connection& connection, const WatchdogSpec& spec) {
+  const DataInPort& target = connection.target();
+  if (!spec.safe_program || !target.type()) return make_error("the watchdog's safe value has no type to take");
+  const DataOutPort* upstream = nullptr;
+  if (spec.upstream) {
+    upstream = dynamic_cast<const DataOutPort*>(find_port(spec.upstream->component + "." + spec.upstream->port));
+    if (!upstream) return make_error("the watchdog's upstream port was not created by its model");
+  }
+  const std::uint32_t flat_capacity = std::max(target.type()->size, target.max_sample_bytes());
+  std::vector<std::byte> zero(target.type()->size), flat(flat_capacity);
+  std::uint32_t flat_size = 0;
+  if (!spec.safe_program->run(zero.data(), static_cast<std::uint32_t>(zero.size()), flat.data(), flat_capacity,
+                              flat_size)) {
+    return make_error("the watchdog's safe value could not be made for " + target.full_name());
+  }
+  flat.resize(flat_size);
+  std::vector<std::byte> safe = std::move(flat);
+  if (const Codec* codec = target.codec()) {
+    std::vector<std::byte> wire(codec->max_wire_size(flat_size));
+    const CodecResult encoded = codec->encode(safe.data(), flat_size, wire.data(), static_cast<std::uint32_t>(wire.size()));
+    if (!encoded.ok()) return make_error("the watchdog's safe value cannot be encoded for " + target.full_name());
+    wire.resize(encoded.size);
+    safe = std::move(wire);
+  }
+  connection.set_watchdog(std::make_unique<ConnectionWatchdog>(connection.source(), upstream, Nanos{spec.deadline_ns},
+                                                               Nanos{spec.max_age_ns}, std::move(safe)));
+  watchdogs_.add(connection);
+  return {};
+}
+
 Result<Connection*> Engine::connect(const std::string& source_component, const std::string& source_port,
                                     const std::string& target_component, const std::string& target_port,
                                     std::optional<QueuePolicy> policy, std::optional<std::uint32_t> depth) {
@@ -153,6 +199,7 @@ Result<void> Engine::start(std::vector<std::string>& warnings) {
       return make_error("component '" + node.name + "' did not start: " + started.error().message);
     }
   }
+  watchdogs_.start(notify_);
   return {};
 }
 
@@ -198,6 +245,7 @@ std::vector<std::size_t> Engine::receivers_first() const {
 void Engine::stop() {
   if (!started_) return;
   started_ = false;
+  watchdogs_.stop();  // no safe value goes to a component that is stopping
   for (auto it = start_order_.rbegin(); it != start_order_.rend(); ++it) nodes_[*it].proxy.interceptor->stop();
   start_order_.clear();
   executors_.stop_all();
@@ -263,6 +311,7 @@ void Engine::describe(nlohmann::json& out) const {
                      {"mode", c->push_mode() ? "push" : "pull"},
                      {"conversion", c->conversion()}};
     if (c->policy() != QueuePolicy::data) j["depth"] = c->depth();
+    if (const ConnectionWatchdog* watchdog = c->watchdog()) j["watchdog"] = describe_watchdog(*watchdog);
     out["connections"].push_back(std::move(j));
   }
   for (const auto& [required, provided] : service_links_) {
@@ -327,6 +376,17 @@ void Engine::stats(nlohmann::json& out) const {
     if (!c->push_mode()) j["age_at_read_ns"] = to_json(c->age().summarize());
     if (c->push_mode()) j["sink_ns"] = to_json(c->sink_time().summarize());
     if (const auto transit = c->transit().summarize(); transit.count != 0) j["transit_ns"] = to_json(transit);
+    if (const ConnectionWatchdog* watchdog = c->watchdog()) {
+      nlohmann::json w = describe_watchdog(*watchdog);
+      const WatchdogCounters& wk = watchdog->counters();
+      w["state"] = to_string(watchdog->state());
+      w["trips"] = load(wk.trips);
+      w["recoveries"] = load(wk.recoveries);
+      w["safe_values"] = load(wk.safe_values);
+      w["stale"] = load(wk.stale);
+      j["watchdog"] = std::move(w);
+      j["dropped_by_reason"]["stale"] = load(k.dropped_stale);
+    }
     out["connections"].push_back(std::move(j));
   }
   out["services"] = nlohmann::json::array();

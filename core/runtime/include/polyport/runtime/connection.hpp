@@ -15,6 +15,7 @@
 #include "polyport/runtime/histogram.hpp"
 #include "polyport/codecs/mapping.hpp"
 #include "polyport/runtime/port.hpp"
+#include "polyport/runtime/watchdog.hpp"
 
 namespace polyport {
 
@@ -31,6 +32,7 @@ struct ConnectionCounters {
   std::atomic<std::uint64_t> dropped_map_error{0};    // the mapping could not run on it
   std::atomic<std::uint64_t> dropped_encode_error{0}; // the target format could not hold it
   std::atomic<std::uint64_t> clamped{0};              // values clamped to range by the encoder
+  std::atomic<std::uint64_t> dropped_stale{0};        // older than the watchdog's max_age (replaced)
 
   std::uint64_t dropped() const noexcept {
     return dropped_queue_full.load(std::memory_order_relaxed) +
@@ -39,7 +41,8 @@ struct ConnectionCounters {
            dropped_sink_error.load(std::memory_order_relaxed) +
            dropped_decode_error.load(std::memory_order_relaxed) +
            dropped_map_error.load(std::memory_order_relaxed) +
-           dropped_encode_error.load(std::memory_order_relaxed);
+           dropped_encode_error.load(std::memory_order_relaxed) +
+           dropped_stale.load(std::memory_order_relaxed);
   }
 };
 
@@ -68,6 +71,13 @@ class Connection {
   std::string name() const;  // "A.out -> B.in"
   std::string conversion() const;  // "passthrough" or the steps, e.g. "xcdr1 -> flat -> map -> lcm"
 
+  // The fail-safe (watchdog.hpp), set before the connection carries samples; null: none.
+  void set_watchdog(std::unique_ptr<ConnectionWatchdog> watchdog) noexcept { watchdog_ = std::move(watchdog); }
+  ConnectionWatchdog* watchdog() const noexcept { return watchdog_.get(); }
+  // Push mode, watchdog thread: hands the safe value to the sink unless a sample is being
+  // handed to it right now. Returns whether it did.
+  bool emit_safe_value(MonoTime now) noexcept;
+
   const ConnectionCounters& counters() const noexcept { return counters_; }
   // t_out - t_in, polyport's own time: entry until stored for the reader (pull) or handed to
   // the sink (push), conversion included.
@@ -89,6 +99,9 @@ class Connection {
   QueuePolicy policy_;
   std::uint32_t depth_;
   void hand_over(const std::byte* data, const SampleMeta& meta) noexcept;
+  Status to_sink(const std::byte* data, const SampleMeta& meta) noexcept;
+  void hand_over_safe(const SampleMeta& meta) noexcept;
+  PopResult take_safe(std::byte* dst, std::uint32_t capacity, SampleMeta& meta) noexcept;
 
   std::unique_ptr<SampleBuffer> buffer_;
   const MappingProgram* mapping_;
@@ -100,6 +113,8 @@ class Connection {
   std::unique_ptr<std::byte[]> decoded_;
   std::unique_ptr<std::byte[]> mapped_;
   std::unique_ptr<std::byte[]> encoded_;
+  std::unique_ptr<ConnectionWatchdog> watchdog_;
+  bool reader_has_safe_ = false;  // reader thread: the safe value was taken since the last sample
   ConnectionCounters counters_;
   LatencyHistogram latency_;
   LatencyHistogram age_;
