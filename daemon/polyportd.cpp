@@ -178,6 +178,12 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
       if (w.contains("max_age_ns")) out << " max_age=" << w.value("max_age_ns", 0) / 1e6 << " ms";
       if (w.contains("upstream")) out << " upstream=" << w["upstream"].get<std::string>();
     }
+    if (c.contains("rate_limit_interval_ns")) {
+      out << "  rate_limit=" << 1e9 / c["rate_limit_interval_ns"].get<double>() << "/s";
+    }
+    for (const auto& band : c.value("deadbands", nlohmann::json::array())) {
+      out << "  deadband=" << band.value("field", "") << ":" << band.value("threshold", 0.0);
+    }
     out << "\n";
   }
   out << "execution contexts:\n";

@@ -148,6 +148,11 @@ const std::vector<ChildRule> kConnectionRules = {
     {"target", {"target"}, false, {"component_name", "port_name"}},
     {"mapping", {"mapping"}, false, {"by_name"}},
     {"watchdog", {"watchdog"}, false, {"deadline_ms", "max_age_ms"}},
+    {"rate_limit", {"rate_limit"}, false, {"per_second"}},
+    {"deadband", {"deadband"}, false, {}},
+};
+const std::vector<ChildRule> kDeadbandRules = {
+    {"field", {"field"}, true, {"name", "threshold"}},
 };
 const std::vector<ChildRule> kWatchdogRules = {
     {"upstream", {"upstream"}, false, {"component_name", "port_name"}},
@@ -332,10 +337,18 @@ class Loader {
   void compile_mapping(const Reporter& report, pugi::xml_node node, ConnectionSpec& spec,
                        const std::string& source_type, const std::string& target_type, bool readable);
 
-  // -- watchdogs (watchdog_reader.cpp) ----------------------------------------------------
+  // -- connection policies (policy_reader.cpp) --------------------------------------------
 
   // Reads a <watchdog>: its times, its upstream end and its safe value's rules.
   std::optional<WatchdogSpec> read_watchdog(const Reporter& report, pugi::xml_node element);
+
+  // Reads <rate_limit> and every <deadband> of a connection.
+  void read_rate_policies(const Reporter& report, const Children& children, ConnectionSpec& spec);
+
+  // Checks a connection's rate limit and deadbands: a data connection, deadband fields that
+  // are numbers of the source's type.
+  void check_rate_policies(const Reporter& report, pugi::xml_node node, ConnectionSpec& spec,
+                           const PortSpec* source);
 
   // Checks a connection's watchdog against the graph: a data connection, an upstream output
   // data port, a safe value of constants that compiles for the target's type.

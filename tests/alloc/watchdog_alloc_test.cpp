@@ -1,7 +1,8 @@
-// A watchdog's paths allocate nothing: samples replaced on the forwarding path (silent
-// upstream, too old), the safe value taken by a pulling reader, and the watchdog thread's pass
-// that trips, writes the safe value to a push-mode sink and sees the recovery. Counted over
-// every thread of the process.
+// The connection policies' paths allocate nothing: a watchdog's samples replaced on the
+// forwarding path (silent upstream, too old), the safe value taken by a pulling reader, and
+// the timer thread's pass that trips, writes the safe value to a push-mode sink and sees the
+// recovery; a rate limit's held samples and their release; a deadband's comparisons. Counted
+// over every thread of the process.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -10,6 +11,7 @@
 #include "alloc_counter.hpp"
 #include "polyport/runtime/component.hpp"
 #include "polyport/runtime/connection.hpp"
+#include "polyport/runtime/connection_timer.hpp"
 #include "polyport/runtime/watchdog.hpp"
 
 namespace polyport {
@@ -57,7 +59,7 @@ TEST(WatchdogAllocations, ReplacedSamplesSafeReadsAndTripsAllocateNothing) {
     out.connections().add(*connection);
     connection->target().connections().add(*connection);
   }
-  WatchdogMonitor monitor;
+  ConnectionTimer monitor;
   monitor.add(push);
   monitor.add(pull);
 
@@ -100,6 +102,34 @@ TEST(WatchdogAllocations, SafeValueForAPullingReaderAllocatesNothing) {
   for (int i = 0; i < 1000; ++i) in.read(&s, sizeof s);
   EXPECT_EQ(allocations() - before, 0u);
   EXPECT_EQ(connection.watchdog()->counters().safe_values.load(), 1u);  // new once, then old
+}
+
+TEST(PolicyAllocations, RateLimitAndDeadbandAllocateNothing) {
+  Component a{"A", "inproc"};
+  Component b{"B", "adaptor"};
+  auto& out = a.add_port<DataOutPort>("out", PortKind::data, nullptr, sizeof(Sample));
+  auto& in = b.add_port<DataInPort>("in", PortKind::data, nullptr, sizeof(Sample), QueuePolicy::data, 1);
+  CountingSink sink;
+  in.set_sink(&sink);
+  Connection connection(out, in, QueuePolicy::data, 1);
+  connection.set_rate_limit(Nanos{1'000'000'000});
+  connection.set_deadbands({DeadbandField{0, TypeKind::float64, 0.5, "values[0]"}});
+  out.connections().add(connection);
+  in.connections().add(connection);
+  ConnectionTimer timer;
+  timer.add(connection);
+  Sample s{};
+  const std::uint64_t before = allocations();
+  for (int i = 0; i < 1000; ++i) {
+    s.values[0] = i;  // moves by 1: passes the deadband
+    out.write(&s, sizeof s);
+    s.values[0] = i + 0.25;  // within it: filtered
+    out.write(&s, sizeof s);
+    timer.check(connection.held_due());  // the held sample goes at its turn
+  }
+  EXPECT_EQ(allocations() - before, 0u);
+  EXPECT_EQ(connection.counters().dropped_filtered.load(), 1000u);
+  EXPECT_EQ(sink.count, 1000u);  // the first directly, then each held one at its turn
 }
 
 }  // namespace

@@ -696,14 +696,16 @@ TEST_F(ProfileMappings, ReadsWatchdogsAndCompilesTheirSafeValues) {
   const auto app = load("watchdog/valid_app.xml");
   ASSERT_TRUE(app.has_value()) << ::testing::PrintToString(messages());
   EXPECT_TRUE(diagnostics_.all().empty()) << ::testing::PrintToString(messages());
-  ASSERT_EQ(app->connections.size(), 2U);
+  ASSERT_EQ(app->connections.size(), 3U);
 
   const ConnectionSpec& temp = app->connections[0];
+  EXPECT_FALSE(temp.rate_limit_per_second.has_value());
+  EXPECT_TRUE(temp.deadbands.empty());
   ASSERT_TRUE(temp.watchdog.has_value());
   EXPECT_EQ(temp.watchdog->deadline_ns, 20'000'000);
   EXPECT_EQ(temp.watchdog->max_age_ns, 0);
   EXPECT_FALSE(temp.watchdog->upstream.has_value());
-  EXPECT_EQ(temp.watchdog->where.line, 13U);
+  EXPECT_EQ(temp.watchdog->where.line, 14U);
   ASSERT_NE(temp.watchdog->safe_program, nullptr);
   const std::vector<std::byte> any(8, std::byte{0x55});  // the program reads nothing of it
   std::vector<std::byte> safe(8);
@@ -725,6 +727,18 @@ TEST_F(ProfileMappings, ReadsWatchdogsAndCompilesTheirSafeValues) {
   ASSERT_TRUE(odom.watchdog->safe_program->run(source.data(), odometry_size, zero.data(), odometry_size + 16, size));
   EXPECT_EQ(size, odometry_size);
   for (std::uint32_t i = 0; i < size; ++i) ASSERT_EQ(zero[i], std::byte{0}) << "byte " << i;
+
+  // A rate limit and a deadband of two fields, on a connection without a watchdog.
+  const ConnectionSpec& accel = app->connections[2];
+  EXPECT_FALSE(accel.watchdog.has_value());
+  ASSERT_TRUE(accel.rate_limit_per_second.has_value());
+  EXPECT_EQ(*accel.rate_limit_per_second, 12.5);
+  ASSERT_EQ(accel.deadbands.size(), 2U);
+  EXPECT_EQ(accel.deadbands[0].field, "accel[2]");
+  EXPECT_EQ(accel.deadbands[0].threshold, 0.5);
+  EXPECT_EQ(accel.deadbands[1].field, "seq");
+  EXPECT_EQ(accel.deadbands[1].threshold, 0.0);
+  EXPECT_EQ(accel.deadbands[1].where.line, 30U);
 }
 
 TEST_F(ProfileMappings, EveryWatchdogProblemAtItsPlace) {
@@ -742,6 +756,12 @@ TEST_F(ProfileMappings, EveryWatchdogProblemAtItsPlace) {
       file + "18:30: " + connection + "[2]/watchdog/@deadline_ms: bad deadline_ms '0'" + expected_ms,
       file + "25:11: " + connection + "[3]/watchdog/safe_value/field: a safe value sets constants only: give "
       "'value', not 'source' or a transform",
+      file + "62:31: " + connection + "[8]/rate_limit/@per_second: bad per_second '0': expected a decimal above 0 "
+      "and at most 1000000",
+      file + "66:36: " + connection + "[8]/deadband/field[3]/@threshold: bad threshold '-1': expected a number of "
+      "0 or more",
+      file + "67:9: " + connection + "[8]/deadband/field[4]: missing attribute 'name' (the number whose change "
+      "lets a sample pass)",
       // Against the graph and the target's type.
       file + "33:9: " + connection + "[4]/watchdog/upstream: Planner.state is a data port (input); a "
       "watchdog's upstream must be an output data port",
@@ -756,6 +776,16 @@ TEST_F(ProfileMappings, EveryWatchdogProblemAtItsPlace) {
       file + "46:9: " + connection + "[5]/watchdog/upstream: unknown component 'Nobody'",
       file + "52:7: " + connection + "[6]/watchdog: a watchdog applies only to data connections",
       file + "57:7: " + connection + "[7]/watchdog: a watchdog applies only to data connections",
+      file + "64:9: " + connection + "[8]/deadband/field[1]: a deadband compares numbers; 'frame' of Sensor.odom "
+      "is 'string<16>'",
+      file + "65:9: " + connection + "[8]/deadband/field[2]: field 'position[2]' not found in 'nav::Odometry' of "
+      "Sensor.odom ('position' is 'double[2]')",
+      file + "68:9: " + connection + "[8]/deadband/field[5]: bad field '2x' (expected names and [index], e.g. "
+      "a.b[1].c)",
+      file + "69:9: " + connection + "[8]/deadband/field[6]: a deadband compares numbers; 'mode' of Sensor.odom "
+      "is 'nav::Mode'",
+      file + "75:7: " + connection + "[9]/rate_limit: a rate limit applies only to data connections",
+      file + "76:7: " + connection + "[9]/deadband: a deadband applies only to data connections",
   }));
 }
 

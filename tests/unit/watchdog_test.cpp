@@ -1,6 +1,6 @@
 // Connection watchdogs: the safe value on the forwarding path, at the reader and from the
 // watchdog thread, the state it keeps, and what it counts. Time passes by calling
-// WatchdogMonitor::check with a later instant, or by waiting on the clock for a condition.
+// ConnectionTimer::check with a later instant, or by waiting on the clock for a condition.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -13,6 +13,7 @@
 
 #include "polyport/runtime/component.hpp"
 #include "polyport/runtime/connection.hpp"
+#include "polyport/runtime/connection_timer.hpp"
 #include "polyport/runtime/watchdog.hpp"
 
 namespace polyport {
@@ -63,7 +64,7 @@ struct Guarded {
   DataOutPort& upstream = up.add_port<DataOutPort>("out", PortKind::data, nullptr, kBytes);
   DataInPort& in = b.add_port<DataInPort>("in", PortKind::data, nullptr, kBytes, QueuePolicy::data, 1);
   std::unique_ptr<Connection> connection;
-  WatchdogMonitor monitor;
+  ConnectionTimer monitor;
 
   explicit Guarded(SampleSink* sink = nullptr, bool with_upstream = false, Nanos max_age = {},
                    QueuePolicy policy = QueuePolicy::data) {

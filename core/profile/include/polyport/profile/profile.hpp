@@ -116,6 +116,16 @@ struct WatchdogSpec {
   SourceLocation where;
 };
 
+// One field of a data connection's deadband (<deadband><field name threshold/></deadband>): a
+// sample passes only when a field of the source's type moved by more than its threshold since
+// the last sample that passed (any one of the fields suffices).
+struct DeadbandSpec {
+  std::string field;  // path in the source port's type ("speed", "pose.x", "wheels[1]")
+  double threshold = 0.0;
+  SourceLocation where;
+  std::string element_path;  // where in the profile, for diagnostics
+};
+
 struct ConnectionSpec {
   PortKind kind = PortKind::data;
   ConnectionEnd source;
@@ -124,6 +134,10 @@ struct ConnectionSpec {
   std::optional<std::uint32_t> depth;
   std::optional<MappingSpec> mapping;  // <mapping> inside <port_connection>
   std::optional<WatchdogSpec> watchdog;  // <watchdog> inside <port_connection>
+  // <rate_limit per_second>: at most this many samples per second reach the target; a sample
+  // that comes sooner waits for its turn and is replaced by a newer one (newest wins).
+  std::optional<double> rate_limit_per_second;
+  std::vector<DeadbandSpec> deadbands;  // the <field>s of <deadband> inside <port_connection>
   // Set by the loader when the two ends' types differ: the compiled mapping (the spec's, or
   // by name when there is none). Null when the types are the same.
   std::shared_ptr<const MappingProgram> program;

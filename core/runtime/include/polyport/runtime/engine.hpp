@@ -14,7 +14,7 @@
 #include "polyport/runtime/connection.hpp"
 #include "polyport/runtime/execution_context.hpp"
 #include "polyport/runtime/model.hpp"
-#include "polyport/runtime/watchdog.hpp"
+#include "polyport/runtime/connection_timer.hpp"
 #include "polyport/profile/profile.hpp"
 #include "polyport/base/result.hpp"
 #include "polyport/types/types.hpp"
@@ -60,8 +60,8 @@ class Engine {
   // Statistics: per connection counters and histograms, per component lifecycle, per
   // execution context jitter and overruns, per service port call counters.
   void stats(nlohmann::json& out) const;
-  // Where watchdog state changes are told (from the watchdog thread); set before start().
-  void set_notifier(WatchdogMonitor::Notify notify) { notify_ = std::move(notify); }
+  // Where watchdog state changes are told (from the connection timer thread); set before start().
+  void set_notifier(ConnectionTimer::Notify notify) { notify_ = std::move(notify); }
 
   // One line for the periodic summary on stderr.
   std::string summary_line() const;
@@ -79,6 +79,7 @@ class Engine {
                                     std::optional<std::uint32_t> depth,
                                     std::shared_ptr<const MappingProgram> mapping = nullptr);
   Result<void> add_watchdog(Connection& connection, const WatchdogSpec& spec);
+  Result<void> add_rate_policies(Connection& connection, const ConnectionSpec& spec);
 
   const ModelRegistry& models_;
   TypeRegistry& types_;
@@ -91,8 +92,8 @@ class Engine {
   std::unique_ptr<Component> probes_;
   bool started_ = false;
   std::vector<std::size_t> start_order_;  // indexes into nodes_, in the order started
-  WatchdogMonitor watchdogs_;
-  WatchdogMonitor::Notify notify_;
+  ConnectionTimer timer_;  // watchdogs and rate limits
+  ConnectionTimer::Notify notify_;
 };
 
 }  // namespace polyport

@@ -9,26 +9,20 @@
 //     too old, is replaced by the safe value (Connection::deliver);
 //   - a reader that pulls while the source is silent reads the safe value (Connection::take);
 //   - a push-mode target (a foreign model's writer) whose source has gone silent gets the
-//     safe value from the watchdog thread (WatchdogMonitor) at the moment the deadline
-//     passes, since nothing else would write to it.
-// The watchdog thread also keeps the state (waiting for a first sample, ok, tripped), counts
+//     safe value from the connection timer thread (connection_timer.hpp) at the moment the
+//     deadline passes, since nothing else would write to it.
+// The timer thread also keeps the state (waiting for a first sample, ok, tripped), counts
 // trips and recoveries, and reports each change through the engine's notifier.
 //
 // Threads: fresh() and the counters are read on the forwarding thread, the reader's thread
-// and the watchdog thread: relaxed atomics, no lock, no allocation. enter()/leave() keep the
-// watchdog thread's safe value and a forwarded sample from reaching a push-mode sink at the
-// same time; the forwarding thread can wait only in the microseconds while the watchdog
-// thread writes a safe value, that is when the source has just been silent for a deadline.
+// and the timer thread: relaxed atomics, no lock, no allocation. The connection keeps the
+// timer thread's safe value and a forwarded sample from reaching a push-mode sink at once.
 #pragma once
 
 #include <atomic>
-#include <condition_variable>
 #include <cstdint>
-#include <functional>
 #include <memory>
-#include <mutex>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "polyport/base/clock.hpp"
@@ -73,12 +67,6 @@ class ConnectionWatchdog {
   const std::byte* safe_bytes() const noexcept { return safe_.data(); }
   std::uint32_t safe_size() const noexcept { return static_cast<std::uint32_t>(safe_.size()); }
 
-  // Push mode: the forwarding thread brackets its sink call with these; the watchdog thread
-  // writes a safe value only when try_enter() succeeds.
-  void enter() noexcept;
-  bool try_enter() noexcept { return !busy_.exchange(true, std::memory_order_acquire); }
-  void leave() noexcept { busy_.store(false, std::memory_order_release); }
-
   const DataOutPort& source() const noexcept { return source_; }
   const DataOutPort* upstream() const noexcept { return upstream_; }
   Nanos deadline() const noexcept { return deadline_; }
@@ -88,7 +76,7 @@ class ConnectionWatchdog {
   const WatchdogCounters& counters() const noexcept { return counters_; }
 
  private:
-  friend class WatchdogMonitor;
+  friend class ConnectionTimer;
   static MonoTime last_write(const DataOutPort& port) noexcept;
 
   const DataOutPort& source_;
@@ -96,41 +84,9 @@ class ConnectionWatchdog {
   Nanos deadline_;
   Nanos max_age_;
   std::vector<std::byte> safe_;
-  std::atomic<bool> busy_{false};
   std::atomic<WatchdogState> state_{WatchdogState::waiting};
-  bool safe_written_ = false;  // watchdog thread: the safe value went out since the last ok
+  bool safe_written_ = false;  // timer thread: the safe value went out since the last ok
   WatchdogCounters counters_;
-};
-
-// The thread that watches every connection's watchdog: it sleeps until the earliest instant
-// one can go stale (timer slack 1 ns), then updates states, counts, notifies, and hands the
-// safe value to push-mode targets whose source went silent. Started by the engine when the
-// application has a watchdog; stop() joins it.
-class WatchdogMonitor {
- public:
-  using Notify = std::function<void(const std::string& message, bool problem)>;
-
-  WatchdogMonitor() = default;
-  WatchdogMonitor(const WatchdogMonitor&) = delete;
-  WatchdogMonitor& operator=(const WatchdogMonitor&) = delete;
-  ~WatchdogMonitor() { stop(); }
-
-  void add(Connection& connection) { connections_.push_back(&connection); }
-  bool empty() const noexcept { return connections_.empty(); }
-  void start(Notify notify);
-  void stop();
-  // One pass at `now` (what the thread does at each wake); returns when to look next.
-  MonoTime check(MonoTime now);
-
- private:
-  void run();
-
-  std::vector<Connection*> connections_;
-  Notify notify_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  bool stopping_ = false;
-  std::thread thread_;
 };
 
 }  // namespace polyport

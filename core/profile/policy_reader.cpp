@@ -1,10 +1,15 @@
-// A data connection's <watchdog>: its times, the upstream port whose silence also trips it,
-// and the safe value it hands the target instead of stale samples.
+// A data connection's policies beyond its queue:
+//  - <watchdog>: its times, the upstream port whose silence also trips it, and the safe value
+//    it hands the target instead of stale samples;
+//  - <rate_limit per_second>: at most that many samples a second, newest wins;
+//  - <deadband>: only samples where a <field name threshold> moved by more than its threshold.
 //
 //   <watchdog deadline_ms="20" max_age_ms="50">
 //     <upstream component_name="Joystick" port_name="reference"/>
 //     <safe_value><field target="left_v" value="0"/></safe_value>
 //   </watchdog>
+//   <rate_limit per_second="20"/>
+//   <deadband><field name="speed_mps" threshold="0.05"/></deadband>
 
 #include "loader.hpp"
 
@@ -29,7 +34,98 @@ std::int64_t read_ms(const Reporter& report, pugi::xml_node element, const char*
   return static_cast<std::int64_t>(std::llround(*ms * 1e6));
 }
 
+constexpr double kMaxRatePerSecond = 1e6;
+
+bool is_number(TypeKind kind) {
+  switch (kind) {
+    case TypeKind::int8: case TypeKind::uint8: case TypeKind::int16: case TypeKind::uint16:
+    case TypeKind::int32: case TypeKind::uint32: case TypeKind::int64: case TypeKind::uint64:
+    case TypeKind::float32: case TypeKind::float64: case TypeKind::octet:
+      return true;
+    default:
+      return false;
+  }
+}
+
 }  // namespace
+
+void Loader::read_rate_policies(const Reporter& report, const Children& children, ConnectionSpec& spec) {
+  if (const pugi::xml_node limit = children.one("rate_limit")) {
+    const pugi::xml_attribute attribute = limit.attribute("per_second");
+    const std::string text(trim(attribute.value()));
+    const auto rate = parse_decimal(text);
+    if (!attribute) {
+      report.error(limit, "missing attribute 'per_second'");
+    } else if (!rate || *rate <= 0.0 || *rate > kMaxRatePerSecond) {
+      report.error_attribute(limit, "per_second",
+                             "bad per_second " + in_quotes(text) + ": expected a decimal above 0 and at most 1000000");
+    } else {
+      spec.rate_limit_per_second = *rate;
+    }
+  }
+  const pugi::xml_node deadband_node = children.one("deadband");
+  if (!deadband_node) return;
+  const Children fields = scan(report, deadband_node, kDeadbandRules);
+  if (fields.all("field").empty()) report.error(deadband_node, "a deadband needs at least one <field name threshold>");
+  for (const pugi::xml_node deadband : fields.all("field")) {
+    DeadbandSpec band;
+    band.where = report.xml().at(deadband);
+    band.element_path = element_path(deadband);
+    band.field = std::string(trim(deadband.attribute("name").value()));
+    bool ok = true;
+    if (band.field.empty()) {
+      report.error(deadband, "missing attribute 'name' (the number whose change lets a sample pass)");
+      ok = false;
+    }
+    const pugi::xml_attribute threshold = deadband.attribute("threshold");
+    const std::string text(trim(threshold.value()));
+    const auto value = parse_number(text);
+    if (!threshold) {
+      report.error(deadband, "missing attribute 'threshold'");
+      ok = false;
+    } else if (!value || *value < 0.0) {
+      report.error_attribute(deadband, "threshold",
+                             "bad threshold " + in_quotes(text) + ": expected a number of 0 or more");
+      ok = false;
+    } else {
+      band.threshold = *value;
+    }
+    if (ok) spec.deadbands.push_back(std::move(band));
+  }
+}
+
+void Loader::check_rate_policies(const Reporter& report, pugi::xml_node node, ConnectionSpec& spec,
+                                 const PortSpec* source) {
+  if (spec.kind != PortKind::data) {
+    for (const char* name : {"rate_limit", "deadband"}) {
+      for (const pugi::xml_node element : node.children(name)) {
+        report.error(element, "a " + std::string(name == std::string("deadband") ? "deadband" : "rate limit") +
+                                  " applies only to data connections");
+      }
+    }
+    spec.rate_limit_per_second.reset();
+    spec.deadbands.clear();
+    return;
+  }
+  if (spec.deadbands.empty() || source == nullptr || source->data_type.empty()) return;
+  const Type* type = types_.find(source->data_type);
+  if (type == nullptr) return;  // reported at the port
+  const std::string source_name = spec.source.component + "." + spec.source.port;
+  for (const DeadbandSpec& band : spec.deadbands) {
+    const FieldPathResult found = find_field_path(*type, band.field);
+    std::string problem;
+    if (found.bad_syntax) {
+      problem = "bad field " + in_quotes(band.field) + " (expected names and [index], e.g. a.b[1].c)";
+    } else if (!found.place) {
+      problem = "field " + in_quotes(band.field) + " not found in " + in_quotes(type->name) + " of " + source_name +
+                " (" + found.why + ")";
+    } else if (!is_number(found.place->type->kind)) {
+      problem = "a deadband compares numbers; " + in_quotes(band.field) + " of " + source_name + " is " +
+                in_quotes(found.place->type->name);
+    }
+    if (!problem.empty()) diagnostics_.error(band.where, band.element_path, problem);
+  }
+}
 
 std::optional<WatchdogSpec> Loader::read_watchdog(const Reporter& report, pugi::xml_node element) {
   WatchdogSpec spec;
