@@ -305,30 +305,40 @@ bool Connection::emit_safe_value(MonoTime now) noexcept {
 
 PopResult Connection::take(std::byte* dst, std::uint32_t capacity, SampleMeta& meta) noexcept {
   if (!buffer_) return PopResult::no_data;
-  if (watchdog_ && !watchdog_->fresh(mono_now())) return take_safe(dst, capacity, meta);
+  if (!watchdog_) {
+    const PopResult result = buffer_->pop(dst, capacity, meta);
+    if (result == PopResult::new_data) {
+      counters_.read.fetch_add(1, std::memory_order_relaxed);
+      age_.record((mono_now() - meta.t_in).count);
+    }
+    return result;
+  }
+  // With a watchdog: one clock read, at the start, for freshness, age and the age histogram.
+  const MonoTime now = mono_now();
+  if (!watchdog_->fresh(now)) return take_safe(dst, capacity, meta, now);
   const PopResult result = buffer_->pop(dst, capacity, meta);
   if (result == PopResult::new_data) {
-    if (watchdog_ && watchdog_->too_old(meta, mono_now())) {
+    if (watchdog_->too_old(meta, now)) {
       counters_.dropped_stale.fetch_add(1, std::memory_order_relaxed);
       watchdog_->counters().stale.fetch_add(1, std::memory_order_relaxed);
-      return take_safe(dst, capacity, meta);
+      return take_safe(dst, capacity, meta, now);
     }
     reader_has_safe_ = false;
     counters_.read.fetch_add(1, std::memory_order_relaxed);
-    age_.record((mono_now() - meta.t_in).count);
+    age_.record((now - meta.t_in).count);
   }
   return result;
 }
 
 // The reader gets the safe value as a new sample once, then as the value it already has
 // (`data`) or nothing new (queues), until samples pass again.
-PopResult Connection::take_safe(std::byte* dst, std::uint32_t capacity, SampleMeta& meta) noexcept {
+PopResult Connection::take_safe(std::byte* dst, std::uint32_t capacity, SampleMeta& meta, MonoTime now) noexcept {
   const std::uint32_t size = watchdog_->safe_size();
   if (size > capacity) return PopResult::too_small;
   const bool again = reader_has_safe_;
   if (again && policy_ != QueuePolicy::data) return PopResult::no_data;
   std::copy_n(watchdog_->safe_bytes(), size, dst);
-  meta = SampleMeta{size, mono_now(), {}};
+  meta = SampleMeta{size, now, {}};
   if (again) return PopResult::old_data;
   reader_has_safe_ = true;
   watchdog_->counters().safe_values.fetch_add(1, std::memory_order_relaxed);

@@ -138,7 +138,7 @@ class Connection {
   bool try_enter() noexcept { return !busy_.exchange(true, std::memory_order_acquire); }
   void leave() noexcept { busy_.store(false, std::memory_order_release); }
   void hand_over_safe(const SampleMeta& meta) noexcept;
-  PopResult take_safe(std::byte* dst, std::uint32_t capacity, SampleMeta& meta) noexcept;
+  PopResult take_safe(std::byte* dst, std::uint32_t capacity, SampleMeta& meta, MonoTime now) noexcept;
 
   std::unique_ptr<SampleBuffer> buffer_;
   const MappingProgram* mapping_;
