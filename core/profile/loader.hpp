@@ -156,6 +156,7 @@ const std::vector<ChildRule> kDeadbandRules = {
 };
 const std::vector<ChildRule> kWatchdogRules = {
     {"upstream", {"upstream"}, false, {"component_name", "port_name"}},
+    {"event", {"event"}, false, {"component_name", "port_name"}},
     {"safe_value", {"safe_value"}, false, {}},
 };
 const std::vector<ChildRule> kMappingRules = {

@@ -35,6 +35,7 @@ std::int64_t read_ms(const Reporter& report, pugi::xml_node element, const char*
 }
 
 constexpr double kMaxRatePerSecond = 1e6;
+constexpr const char* kWatchdogEventType = "polyport::WatchdogEvent";
 
 bool is_number(TypeKind kind) {
   switch (kind) {
@@ -144,6 +145,11 @@ std::optional<WatchdogSpec> Loader::read_watchdog(const Reporter& report, pugi::
     read_end(report, element, upstream, "upstream", end);
     spec.upstream = std::move(end);
   }
+  if (const pugi::xml_node event = children.one("event")) {
+    ConnectionEnd end;
+    read_end(report, element, event, "event", end);
+    spec.event = std::move(end);
+  }
   spec.safe_value.by_name = false;  // fields no rule sets are zero
   if (const pugi::xml_node safe = children.one("safe_value")) {
     spec.safe_value.where = report.xml().at(safe);
@@ -194,6 +200,24 @@ void Loader::check_watchdog(const Reporter& report, const ApplicationProfile& ap
                                       port_noun(*upstream.port) + " (" +
                                       std::string(to_string(upstream.port->direction)) +
                                       "); a watchdog's upstream must be an output data port");
+    }
+  }
+  if (watchdog.event) {
+    const pugi::xml_node event_node = element.child("event");
+    const ResolvedEnd event = resolve(report, app, event_node, *watchdog.event);
+    const std::string name = watchdog.event->component + "." + watchdog.event->port;
+    if (event.checkable) {
+      const PortSpec& port = *event.port;
+      if (port.kind == PortKind::service || port.direction != PortDirection::input) {
+        report.error(event_node, name + " is " + port_noun(port) + " (" + std::string(to_string(port.direction)) +
+                                     "); a watchdog's events go to an input event or data port");
+      } else if (!types_.find(kWatchdogEventType)) {
+        report.error(event_node, "the type " + std::string(kWatchdogEventType) +
+                                     " is not loaded: add config/types/watchdog_event.idl to the profile's <types>");
+      } else if (!same_type(port.data_type, kWatchdogEventType)) {
+        report.error(event_node, name + " carries " + in_quotes(port.data_type) + "; a watchdog's events are " +
+                                     in_quotes(kWatchdogEventType));
+      }
     }
   }
   if (target == nullptr || target->data_type.empty()) return;  // reported at the port

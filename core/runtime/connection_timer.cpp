@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdio>
 
+#include "polyport/runtime/component.hpp"
 #include "polyport/runtime/connection.hpp"
 #include "polyport/runtime/port.hpp"
 
@@ -65,6 +66,7 @@ MonoTime ConnectionTimer::check_watchdog(Connection& connection, MonoTime now) {
       watchdog.state_.store(WatchdogState::ok, std::memory_order_relaxed);
       if (state == WatchdogState::tripped) {
         watchdog.counters_.recoveries.fetch_add(1, std::memory_order_relaxed);
+        tell(watchdog, 1, 0, nullptr);
         if (notify_) notify_("watchdog " + connection.name() + ": recovered, samples pass again", false);
       } else if (notify_) {
         notify_("watchdog " + connection.name() + ": armed, deadline " + milliseconds(watchdog.deadline()), false);
@@ -75,9 +77,10 @@ MonoTime ConnectionTimer::check_watchdog(Connection& connection, MonoTime now) {
   if (state == WatchdogState::ok) {
     watchdog.state_.store(WatchdogState::tripped, std::memory_order_relaxed);
     watchdog.counters_.trips.fetch_add(1, std::memory_order_relaxed);
+    const bool source_silent = now - ConnectionWatchdog::last_write(watchdog.source()) > watchdog.deadline();
+    const DataOutPort& silent = source_silent || !watchdog.upstream() ? watchdog.source() : *watchdog.upstream();
+    tell(watchdog, 0, (now - ConnectionWatchdog::last_write(silent)).count, &silent);
     if (notify_) {
-      const bool source_silent = now - ConnectionWatchdog::last_write(watchdog.source()) > watchdog.deadline();
-      const DataOutPort& silent = source_silent || !watchdog.upstream() ? watchdog.source() : *watchdog.upstream();
       notify_("watchdog " + connection.name() + ": tripped, " + silent.full_name() + " silent for more than " +
                   milliseconds(watchdog.deadline()) + "; the target gets the safe value",
               true);
@@ -88,6 +91,24 @@ MonoTime ConnectionTimer::check_watchdog(Connection& connection, MonoTime now) {
   // pull-mode reader from Connection::take.
   if (!watchdog.safe_written_ && connection.push_mode()) watchdog.safe_written_ = connection.emit_safe_value(now);
   return now + (watchdog.safe_written_ || !connection.push_mode() ? kRecoveryPoll : kRetry);
+}
+
+// The watchdog's event port, if it has one: a fixed-size sample, written on this thread.
+void ConnectionTimer::tell(ConnectionWatchdog& watchdog, std::int32_t kind, std::int64_t silent_ns,
+                           const DataOutPort* silent) {
+  if (watchdog.events_ == nullptr) return;
+  WatchdogEventSample& event = watchdog.event_;
+  event.kind = kind;
+  event.trips = watchdog.counters_.trips.load(std::memory_order_relaxed);
+  event.recoveries = watchdog.counters_.recoveries.load(std::memory_order_relaxed);
+  event.silent_ns = silent_ns;
+  event.silent_port[0] = '\0';
+  if (silent != nullptr) {
+    const std::string& owner = silent->owner().name();
+    const std::string& port = silent->name();
+    std::snprintf(event.silent_port, sizeof event.silent_port, "%s.%s", owner.c_str(), port.c_str());
+  }
+  watchdog.events_->write(&event, sizeof event);
 }
 
 MonoTime ConnectionTimer::check_rate_limit(Connection& connection, MonoTime now) {

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -171,9 +172,41 @@ Result<void> Engine::add_watchdog(Connection& connection, const WatchdogSpec& sp
     wire.resize(encoded.size);
     safe = std::move(wire);
   }
-  connection.set_watchdog(std::make_unique<ConnectionWatchdog>(connection.source(), upstream, Nanos{spec.deadline_ns},
-                                                               Nanos{spec.max_age_ns}, std::move(safe)));
+  auto watchdog = std::make_unique<ConnectionWatchdog>(connection.source(), upstream, Nanos{spec.deadline_ns},
+                                                       Nanos{spec.max_age_ns}, std::move(safe));
+  if (spec.event) {
+    auto events = watchdog_events(connection, *spec.event);
+    if (!events) return events.error();
+    watchdog->set_events(events.value(), connection.name());
+  }
+  connection.set_watchdog(std::move(watchdog));
   return {};
+}
+
+// An engine-owned output port ("watchdogs.<target of the watched connection>") connected to
+// the profile's <event> port, whose type must have WatchdogEventSample's layout.
+Result<DataOutPort*> Engine::watchdog_events(const Connection& watched, const ConnectionEnd& end) {
+  Port* target = find_port(end.component + "." + end.port);
+  if (!target) return make_error("the watchdog's event port " + end.component + "." + end.port + " was not created by its model");
+  const Type* type = types_.find("polyport::WatchdogEvent");
+  const auto offset = [type](std::string_view field) -> std::int64_t {
+    const Field* f = type->find_field(field);
+    return f ? f->offset : -1;
+  };
+  if (type == nullptr || type->size != sizeof(WatchdogEventSample) ||
+      offset("kind") != offsetof(WatchdogEventSample, kind) || offset("trips") != offsetof(WatchdogEventSample, trips) ||
+      offset("recoveries") != offsetof(WatchdogEventSample, recoveries) ||
+      offset("silent_ns") != offsetof(WatchdogEventSample, silent_ns) ||
+      offset("connection") != offsetof(WatchdogEventSample, connection) ||
+      offset("silent_port") != offsetof(WatchdogEventSample, silent_port)) {
+    return make_error("polyport::WatchdogEvent is not the type of config/types/watchdog_event.idl");
+  }
+  if (!watchdog_events_) watchdog_events_ = std::make_unique<Component>("watchdogs", "inproc");
+  auto& out = watchdog_events_->add_port<DataOutPort>(watched.target().full_name(), target->kind(), type,
+                                                      static_cast<std::uint32_t>(sizeof(WatchdogEventSample)));
+  auto connected = connect_ports(out, *target, std::nullopt, std::nullopt);
+  if (!connected) return connected.error();
+  return &out;
 }
 
 Result<void> Engine::add_rate_policies(Connection& connection, const ConnectionSpec& spec) {

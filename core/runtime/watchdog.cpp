@@ -3,6 +3,7 @@
 #include "polyport/runtime/watchdog.hpp"
 
 #include <algorithm>
+#include <cstdio>
 
 #include "polyport/runtime/port.hpp"
 
@@ -22,6 +23,11 @@ ConnectionWatchdog::ConnectionWatchdog(const DataOutPort& source, const DataOutP
     : source_(source), upstream_(upstream), deadline_(deadline), max_age_(max_age), safe_(std::move(safe)) {}
 
 MonoTime ConnectionWatchdog::last_write(const DataOutPort& port) noexcept { return port.last_write(); }
+
+void ConnectionWatchdog::set_events(DataOutPort* port, const std::string& connection_name) {
+  events_ = port;
+  std::snprintf(event_.connection, sizeof event_.connection, "%s", connection_name.c_str());
+}
 
 MonoTime ConnectionWatchdog::expiry() const noexcept {
   MonoTime oldest = last_write(source_);

@@ -705,7 +705,7 @@ TEST_F(ProfileMappings, ReadsWatchdogsAndCompilesTheirSafeValues) {
   EXPECT_EQ(temp.watchdog->deadline_ns, 20'000'000);
   EXPECT_EQ(temp.watchdog->max_age_ns, 0);
   EXPECT_FALSE(temp.watchdog->upstream.has_value());
-  EXPECT_EQ(temp.watchdog->where.line, 14U);
+  EXPECT_EQ(temp.watchdog->where.line, 15U);
   ASSERT_NE(temp.watchdog->safe_program, nullptr);
   const std::vector<std::byte> any(8, std::byte{0x55});  // the program reads nothing of it
   std::vector<std::byte> safe(8);
@@ -738,7 +738,7 @@ TEST_F(ProfileMappings, ReadsWatchdogsAndCompilesTheirSafeValues) {
   EXPECT_EQ(accel.deadbands[0].threshold, 0.5);
   EXPECT_EQ(accel.deadbands[1].field, "seq");
   EXPECT_EQ(accel.deadbands[1].threshold, 0.0);
-  EXPECT_EQ(accel.deadbands[1].where.line, 30U);
+  EXPECT_EQ(accel.deadbands[1].where.line, 32U);
 }
 
 TEST_F(ProfileMappings, EveryWatchdogProblemAtItsPlace) {
@@ -756,36 +756,40 @@ TEST_F(ProfileMappings, EveryWatchdogProblemAtItsPlace) {
       file + "18:30: " + connection + "[2]/watchdog/@deadline_ms: bad deadline_ms '0'" + expected_ms,
       file + "25:11: " + connection + "[3]/watchdog/safe_value/field: a safe value sets constants only: give "
       "'value', not 'source' or a transform",
-      file + "62:31: " + connection + "[8]/rate_limit/@per_second: bad per_second '0': expected a decimal above 0 "
+      file + "64:31: " + connection + "[8]/rate_limit/@per_second: bad per_second '0': expected a decimal above 0 "
       "and at most 1000000",
-      file + "66:36: " + connection + "[8]/deadband/field[3]/@threshold: bad threshold '-1': expected a number of "
+      file + "68:36: " + connection + "[8]/deadband/field[3]/@threshold: bad threshold '-1': expected a number of "
       "0 or more",
-      file + "67:9: " + connection + "[8]/deadband/field[4]: missing attribute 'name' (the number whose change "
+      file + "69:9: " + connection + "[8]/deadband/field[4]: missing attribute 'name' (the number whose change "
       "lets a sample pass)",
       // Against the graph and the target's type.
       file + "33:9: " + connection + "[4]/watchdog/upstream: Planner.state is a data port (input); a "
       "watchdog's upstream must be an output data port",
-      file + "35:11: " + connection + "[4]/watchdog/safe_value/field[1]: target 'speed' not found in "
+      file + "34:9: " + connection + "[4]/watchdog/event: the type polyport::WatchdogEvent is not loaded: add "
+      "config/types/watchdog_event.idl to the profile's <types>",
+      file + "36:11: " + connection + "[4]/watchdog/safe_value/field[1]: target 'speed' not found in "
       "'nav::Odometry' (fields: speed_kmh, heading_deg, position, mode, frame, seq)",
-      file + "36:11: " + connection + "[4]/watchdog/safe_value/field[2]: bad constant 'fast' for target "
+      file + "37:11: " + connection + "[4]/watchdog/safe_value/field[2]: bad constant 'fast' for target "
       "'heading_deg' ('double'): expected a finite number",
-      file + "37:11: " + connection + "[4]/watchdog/safe_value/field[3]: 'PARK' is not an enumerator of "
+      file + "38:11: " + connection + "[4]/watchdog/safe_value/field[3]: 'PARK' is not an enumerator of "
       "'nav::Mode' (enumerators: IDLE, DRIVE, BRAKE)",
-      file + "45:34: " + connection + "[5]/watchdog/@max_age_ms: warning: max_age_ms is shorter than "
+      file + "46:34: " + connection + "[5]/watchdog/@max_age_ms: warning: max_age_ms is shorter than "
       "deadline_ms: every sample that arrives late enough to be within the deadline is replaced anyway",
-      file + "46:9: " + connection + "[5]/watchdog/upstream: unknown component 'Nobody'",
-      file + "52:7: " + connection + "[6]/watchdog: a watchdog applies only to data connections",
-      file + "57:7: " + connection + "[7]/watchdog: a watchdog applies only to data connections",
-      file + "64:9: " + connection + "[8]/deadband/field[1]: a deadband compares numbers; 'frame' of Sensor.odom "
+      file + "47:9: " + connection + "[5]/watchdog/upstream: unknown component 'Nobody'",
+      file + "48:9: " + connection + "[5]/watchdog/event: Sensor.tick is an event port (output); a watchdog's "
+      "events go to an input event or data port",
+      file + "54:7: " + connection + "[6]/watchdog: a watchdog applies only to data connections",
+      file + "59:7: " + connection + "[7]/watchdog: a watchdog applies only to data connections",
+      file + "66:9: " + connection + "[8]/deadband/field[1]: a deadband compares numbers; 'frame' of Sensor.odom "
       "is 'string<16>'",
-      file + "65:9: " + connection + "[8]/deadband/field[2]: field 'position[2]' not found in 'nav::Odometry' of "
+      file + "67:9: " + connection + "[8]/deadband/field[2]: field 'position[2]' not found in 'nav::Odometry' of "
       "Sensor.odom ('position' is 'double[2]')",
-      file + "68:9: " + connection + "[8]/deadband/field[5]: bad field '2x' (expected names and [index], e.g. "
+      file + "70:9: " + connection + "[8]/deadband/field[5]: bad field '2x' (expected names and [index], e.g. "
       "a.b[1].c)",
-      file + "69:9: " + connection + "[8]/deadband/field[6]: a deadband compares numbers; 'mode' of Sensor.odom "
+      file + "71:9: " + connection + "[8]/deadband/field[6]: a deadband compares numbers; 'mode' of Sensor.odom "
       "is 'nav::Mode'",
-      file + "75:7: " + connection + "[9]/rate_limit: a rate limit applies only to data connections",
-      file + "76:7: " + connection + "[9]/deadband: a deadband applies only to data connections",
+      file + "77:7: " + connection + "[9]/rate_limit: a rate limit applies only to data connections",
+      file + "78:7: " + connection + "[9]/deadband: a deadband applies only to data connections",
   }));
 }
 

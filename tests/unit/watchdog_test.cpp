@@ -234,6 +234,50 @@ TEST(Watchdog, SafeValueAndSamplesNeverOverlapAtTheSink) {
   EXPECT_GE(g.watchdog().counters().trips.load(), 1000u);
 }
 
+// An event port (<watchdog><event>) hears of each trip and recovery, with the counts so far.
+TEST(Watchdog, EventPortHearsOfTripsAndRecoveries) {
+  Sink sink;
+  Guarded g(&sink, true);
+  Component events{"watchdogs", "inproc"};
+  Component monitor{"Monitor", "inproc"};
+  auto& out = events.add_port<DataOutPort>("B.in", PortKind::event, nullptr, sizeof(WatchdogEventSample));
+  auto& in = monitor.add_port<DataInPort>("alarms", PortKind::event, nullptr, sizeof(WatchdogEventSample),
+                                          QueuePolicy::circular, 8);
+  Connection told(out, in, QueuePolicy::circular, 8);
+  out.connections().add(told);
+  in.connections().add(told);
+  g.watchdog().set_events(&out, g.connection->name());
+
+  std::uint64_t up = 1;
+  g.upstream.write(&up, sizeof up);
+  ASSERT_EQ(g.write(1), Status::ok);
+  const MonoTime written = g.out.last_write();
+  g.monitor.check(written);  // armed: no event
+  WatchdogEventSample event{};
+  EXPECT_EQ(in.read(&event, sizeof event), Status::no_data);
+  wait_past_deadline(g.upstream);
+  ASSERT_EQ(g.write(2), Status::ok);  // the source goes on; the upstream is the silent one
+  const MonoTime later = mono_now();
+  g.monitor.check(later);
+  ASSERT_EQ(in.read(&event, sizeof event), Status::ok);
+  EXPECT_EQ(event.kind, 0);
+  EXPECT_EQ(event.trips, 1u);
+  EXPECT_EQ(event.recoveries, 0u);
+  EXPECT_EQ(std::string(event.connection), "A.out -> B.in");
+  EXPECT_EQ(std::string(event.silent_port), "Up.out");
+  EXPECT_EQ(event.silent_ns, (later - g.upstream.last_write()).count);
+
+  g.upstream.write(&up, sizeof up);
+  ASSERT_EQ(g.write(3), Status::ok);
+  g.monitor.check(mono_now());
+  ASSERT_EQ(in.read(&event, sizeof event), Status::ok);
+  EXPECT_EQ(event.kind, 1);
+  EXPECT_EQ(event.trips, 1u);
+  EXPECT_EQ(event.recoveries, 1u);
+  EXPECT_EQ(std::string(event.silent_port), "");
+  EXPECT_EQ(in.read(&event, sizeof event), Status::no_data);
+}
+
 // The thread itself: it wakes at the deadline, says so, and writes the safe value.
 TEST(Watchdog, MonitorThreadTripsAfterTheDeadlineAndReportsIt) {
   Sink sink;

@@ -15,6 +15,7 @@
 
 #include "../support/daemon_harness.hpp"
 #include "dds/dds.h"
+#include "watchdog_event.h"
 #include "wheelchair.h"
 
 namespace polyport::test {
@@ -54,6 +55,38 @@ void take_all(dds_entity_t reader, std::vector<T>& out, std::vector<dds_time_t>&
     if (n < kBatch) return;
   }
 }
+
+// polyport's watchdog events on the topic polyport/watchdog, read with idlc's types.
+class AlarmReader {
+ public:
+  explicit AlarmReader(dds_domainid_t domain) {
+    participant_ = dds_create_participant(domain, nullptr, nullptr);
+    dds_qos_t* qos = dds_create_qos();
+    dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
+    dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 16);
+    const dds_entity_t topic =
+        dds_create_topic(participant_, &polyport_WatchdogEvent_desc, "polyport/watchdog", nullptr, nullptr);
+    reader_ = dds_create_reader(participant_, topic, qos, nullptr);
+    dds_delete_qos(qos);
+  }
+  ~AlarmReader() {
+    if (participant_ > 0) dds_delete(participant_);
+  }
+  AlarmReader(const AlarmReader&) = delete;
+  AlarmReader& operator=(const AlarmReader&) = delete;
+  bool ok() const { return participant_ > 0 && reader_ > 0; }
+  // Every event that arrived so far.
+  const std::vector<polyport_WatchdogEvent>& events() {
+    std::vector<dds_time_t> stamps;
+    take_all(reader_, events_, stamps);
+    return events_;
+  }
+
+ private:
+  dds_entity_t participant_ = 0;
+  dds_entity_t reader_ = 0;
+  std::vector<polyport_WatchdogEvent> events_;
+};
 
 // The HW node's side of the domain, played by the test.
 class HwSide {
@@ -280,7 +313,8 @@ TEST_F(WheelchairDdsNodes, MotorsStopWhenTheJoystickIsKilledAndDriveWhenItReturn
   constexpr dds_duration_t kDeadline = DDS_MSECS(20);
   constexpr dds_duration_t kTwoPeriods = DDS_MSECS(20);
   HwSide hw(kFailSafeDomain);
-  ASSERT_TRUE(hw.ok()) << "the test's own DDS entities could not be created";
+  AlarmReader alarms(kFailSafeDomain);
+  ASSERT_TRUE(hw.ok() && alarms.ok()) << "the test's own DDS entities could not be created";
   const fs::path app = fill_templates(POLYPORT_TEST_DATA "/wheelchair",
                                       {{"@DOMAIN@", std::to_string(kFailSafeDomain)}, {"@SRC@", POLYPORT_SOURCE_DIR}},
                                       "fail_safe_app.xml");
@@ -312,7 +346,9 @@ TEST_F(WheelchairDdsNodes, MotorsStopWhenTheJoystickIsKilledAndDriveWhenItReturn
   while (!(hw.voltage_stamps[first_zero] > killed && hw.voltages[first_zero].left_v == 0.0)) ++first_zero;
   for (std::size_t i = 0; i < first_zero; ++i) {
     // Between the kill and then, Control's own command went through (driving straight on).
-    if (hw.voltage_stamps[i] > killed) EXPECT_GT(hw.voltages[i].left_v, 0.0) << "sample " << i;
+    if (hw.voltage_stamps[i] > killed) {
+      EXPECT_GT(hw.voltages[i].left_v, 0.0) << "sample " << i;
+    }
   }
   const dds_time_t zero_at = hw.voltage_stamps[first_zero];
   EXPECT_GE(zero_at, deadline - DDS_MSECS(1)) << "the motors stopped before the deadline passed";
@@ -320,6 +356,17 @@ TEST_F(WheelchairDdsNodes, MotorsStopWhenTheJoystickIsKilledAndDriveWhenItReturn
       << "zero command " << (zero_at - deadline) / 1e6 << " ms after the last reference's deadline";
   std::printf("fail-safe: zero command %.3f ms after the last reference's deadline (%.3f ms after it)\n",
               static_cast<double>(zero_at - deadline) / 1e6, static_cast<double>(zero_at - last_reference) / 1e6);
+
+  // The trip, as a DDS application hears of it (the newest event: a busy machine may have
+  // tripped it before, which then recovered).
+  ASSERT_TRUE(eventually([&] { return !alarms.events().empty(); })) << "no watchdog event on polyport/watchdog";
+  const polyport_WatchdogEvent tripped = alarms.events().back();
+  EXPECT_EQ(tripped.kind, polyport_WATCHDOG_TRIPPED);
+  EXPECT_GE(tripped.trips, 1U);
+  EXPECT_EQ(tripped.recoveries, tripped.trips - 1);
+  EXPECT_STREQ(tripped.connection, "Control.voltages -> Nodes.voltages");
+  EXPECT_STREQ(tripped.silent_port, "Nodes.reference");
+  EXPECT_GT(tripped.silent_ns, kDeadline);
 
   // The joystick returns: driving resumes.
   hw.forget();
@@ -333,12 +380,22 @@ TEST_F(WheelchairDdsNodes, MotorsStopWhenTheJoystickIsKilledAndDriveWhenItReturn
   };
   EXPECT_TRUE(hw.drive_until(straight, at_rest, driving_again)) << "driving did not resume\n" << logs();
 
+  ASSERT_TRUE(eventually([&] { return alarms.events().back().kind == polyport_WATCHDOG_RECOVERED; }))
+      << "no recovery event on polyport/watchdog";
+  EXPECT_EQ(alarms.events().back().recoveries, alarms.events().back().trips);
+  EXPECT_GE(alarms.events().back().recoveries, tripped.trips);
+  EXPECT_STREQ(alarms.events().back().silent_port, "");
+
   const Json stats = stop(*polyportd);
   joystick_again->signal(SIGTERM);
   EXPECT_EQ(joystick_again->wait(10s), 0) << joystick_again->errors();
   ASSERT_TRUE(stats.contains("connections")) << stats.dump(2);
   bool found = false;
   for (const Json& link : stats["connections"]) {
+    if (link.value("source", "") == "watchdogs.Nodes.voltages") {
+      EXPECT_EQ(link.value("target", ""), "Alarms.events") << link.dump();
+      EXPECT_EQ(link.value("delivered", 0), alarms.events().size()) << link.dump();
+    }
     if (!link.contains("watchdog")) continue;
     found = true;
     const Json& w = link["watchdog"];

@@ -109,6 +109,9 @@ struct WatchdogSpec {
   std::int64_t deadline_ns = 0;
   std::int64_t max_age_ns = 0;          // 0: no bound on a sample's age
   std::optional<ConnectionEnd> upstream;  // an output data port whose silence also trips it
+  // An input event or data port of type polyport::WatchdogEvent (config/types/
+  // watchdog_event.idl) that is told of each trip and recovery.
+  std::optional<ConnectionEnd> event;
   MappingSpec safe_value;               // constants only (by_name false): the rest is zero
   // Set by the loader: the safe value's program, from the target's type to itself (it reads
   // nothing of its source). Null when the target's type is unknown (reported already).

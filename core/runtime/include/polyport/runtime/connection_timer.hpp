@@ -12,6 +12,7 @@
 #pragma once
 
 #include <condition_variable>
+#include <cstdint>
 #include <functional>
 #include <mutex>
 #include <string>
@@ -23,6 +24,8 @@
 namespace polyport {
 
 class Connection;
+class ConnectionWatchdog;
+class DataOutPort;
 
 class ConnectionTimer {
  public:
@@ -43,6 +46,7 @@ class ConnectionTimer {
  private:
   MonoTime check_watchdog(Connection& connection, MonoTime now);
   MonoTime check_rate_limit(Connection& connection, MonoTime now);
+  void tell(ConnectionWatchdog& watchdog, std::int32_t kind, std::int64_t silent_ns, const DataOutPort* silent);
   void run();
 
   std::vector<Connection*> connections_;

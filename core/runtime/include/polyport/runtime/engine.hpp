@@ -80,6 +80,7 @@ class Engine {
                                     std::shared_ptr<const MappingProgram> mapping = nullptr);
   Result<void> add_watchdog(Connection& connection, const WatchdogSpec& spec);
   Result<void> add_rate_policies(Connection& connection, const ConnectionSpec& spec);
+  Result<DataOutPort*> watchdog_events(const Connection& watched, const ConnectionEnd& end);
 
   const ModelRegistry& models_;
   TypeRegistry& types_;
@@ -90,6 +91,7 @@ class Engine {
   std::vector<std::pair<RequiredServicePort*, ProvidedServicePort*>> service_links_;
   std::string name_;
   std::unique_ptr<Component> probes_;
+  std::unique_ptr<Component> watchdog_events_;  // the watchdogs' event ports (<watchdog><event>)
   bool started_ = false;
   std::vector<std::size_t> start_order_;  // indexes into nodes_, in the order started
   ConnectionTimer timer_;  // watchdogs and rate limits

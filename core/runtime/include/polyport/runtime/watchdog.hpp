@@ -23,6 +23,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "polyport/base/clock.hpp"
@@ -47,6 +48,17 @@ struct WatchdogCounters {
   std::atomic<std::uint64_t> stale{0};        // samples older than max_age, replaced
 };
 
+// polyport::WatchdogEvent's flat layout (config/types/watchdog_event.idl); the engine checks
+// the registered type against it before it connects an event port.
+struct WatchdogEventSample {
+  std::int32_t kind = 0;  // 0 WATCHDOG_TRIPPED, 1 WATCHDOG_RECOVERED
+  std::uint64_t trips = 0;
+  std::uint64_t recoveries = 0;
+  std::int64_t silent_ns = 0;
+  char connection[128] = {};
+  char silent_port[128] = {};
+};
+
 class ConnectionWatchdog {
  public:
   // `safe` is the safe value in the target port's wire format.
@@ -67,6 +79,11 @@ class ConnectionWatchdog {
   const std::byte* safe_bytes() const noexcept { return safe_.data(); }
   std::uint32_t safe_size() const noexcept { return static_cast<std::uint32_t>(safe_.size()); }
 
+  // The port that tells of trips and recoveries (an engine-owned output port connected to
+  // the profile's <event> port); written by the timer thread only.
+  void set_events(DataOutPort* port, const std::string& connection_name);
+  DataOutPort* events() const noexcept { return events_; }
+
   const DataOutPort& source() const noexcept { return source_; }
   const DataOutPort* upstream() const noexcept { return upstream_; }
   Nanos deadline() const noexcept { return deadline_; }
@@ -86,6 +103,8 @@ class ConnectionWatchdog {
   std::vector<std::byte> safe_;
   std::atomic<WatchdogState> state_{WatchdogState::waiting};
   bool safe_written_ = false;  // timer thread: the safe value went out since the last ok
+  DataOutPort* events_ = nullptr;
+  WatchdogEventSample event_;  // timer thread: the next event, its connection name filled in
   WatchdogCounters counters_;
 };
 
