@@ -46,6 +46,28 @@ TEST(PropertyValue, IsCheckedAgainstItsDeclaredType) {
   EXPECT_EQ(property_value_problem(untyped, "x"), "");
 }
 
+// Event connections take the same path: their kind is the source port's, their default
+// policy the loader's for events (circular), and a data port does not join an event port.
+TEST(RuntimeConnectionCheck, EventConnectionsAreCheckedAsInAProfile) {
+  TypeRegistry types;
+  Diagnostics diagnostics;
+  const auto app = load_application_profile(POLYPORT_TEST_DATA "/profiles/valid_app.xml", types,
+                                            LoadOptions{{POLYPORT_TEST_DATA "/profiles/libs"}}, diagnostics);
+  ASSERT_TRUE(app) << messages(diagnostics);
+  Diagnostics found;
+  auto busy = check_connection(*app, types, {"Joystick.busy", "Control.joystick_busy", "", ""}, found);
+  ASSERT_TRUE(busy) << messages(found);
+  EXPECT_EQ(busy->kind, PortKind::event);
+  EXPECT_EQ(busy->policy, QueuePolicy::circular);
+  EXPECT_EQ(busy->depth, 16u);
+  auto status = check_connection(*app, types, {"Motor.status", "Control.status", "", ""}, found);
+  ASSERT_TRUE(status) << messages(found);
+  EXPECT_EQ(status->depth, 8u);  // the input port's queue_size
+  EXPECT_FALSE(check_connection(*app, types, {"Joystick.joystick", "Control.joystick_busy", "", ""}, found));
+  EXPECT_NE(messages(found).find("Control.joystick_busy is an event port; this is a data connection"), std::string::npos)
+      << messages(found);
+}
+
 class RuntimeChanges : public test::EngineFixture {
  protected:
   RuntimeChanges() : EngineFixture(POLYPORT_TEST_DATA "/engine", LoadOptions{{POLYPORT_PLUGIN_DIR}}) {
