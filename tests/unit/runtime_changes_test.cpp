@@ -68,6 +68,24 @@ TEST(RuntimeConnectionCheck, EventConnectionsAreCheckedAsInAProfile) {
       << messages(found);
 }
 
+// A model that keeps the Interceptor defaults, as the foreign models (DDS, LCM, CAN) do.
+class ForeignInterceptor final : public Interceptor {
+ public:
+  Result<void> start() override { return {}; }
+  void stop() noexcept override {}
+  ReturnCode command(LifecycleCommand) override { return ReturnCode::unsupported; }
+  InterceptorStatus status() const override { return {"active", 0, 0}; }
+  void describe(nlohmann::json&) const override {}
+};
+
+TEST(ForeignComponent, RefusesPropertyChangesAndSaysWhy) {
+  ForeignInterceptor foreign;
+  std::string why;
+  EXPECT_EQ(foreign.set_property("rate", "5", why), ReturnCode::unsupported);
+  EXPECT_EQ(why, "polyport cannot pass a property to a component of this model while it runs");
+  EXPECT_EQ(foreign.properties(), nullptr);
+}
+
 class RuntimeChanges : public test::EngineFixture {
  protected:
   RuntimeChanges() : EngineFixture(POLYPORT_TEST_DATA "/engine", LoadOptions{{POLYPORT_PLUGIN_DIR}}) {
