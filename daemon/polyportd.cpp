@@ -184,6 +184,18 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
     if (c.contains("mode")) out << "  mode=" << c["mode"].get<std::string>();
     if (c.contains("conversion")) out << "  conversion=" << c["conversion"].get<std::string>();
     if (c.contains("max_in_flight")) out << "  max_in_flight=" << c["max_in_flight"];
+    if (c.contains("watchdog")) {
+      const auto& w = c["watchdog"];
+      out << "  watchdog=" << w.value("deadline_ns", 0) / 1e6 << " ms";
+      if (w.contains("max_age_ns")) out << " max_age=" << w.value("max_age_ns", 0) / 1e6 << " ms";
+      if (w.contains("upstream")) out << " upstream=" << w["upstream"].get<std::string>();
+    }
+    if (c.contains("rate_limit_interval_ns")) {
+      out << "  rate_limit=" << 1e9 / c["rate_limit_interval_ns"].get<double>() << "/s";
+    }
+    for (const auto& band : c.value("deadbands", nlohmann::json::array())) {
+      out << "  deadband=" << band.value("field", "") << ":" << band.value("threshold", 0.0);
+    }
     out << "\n";
   }
   out << "execution contexts:\n";
@@ -272,6 +284,11 @@ void print_final_stats(const nlohmann::json& stats) {
   for (const auto& c : stats["connections"]) {
     spdlog::info("  {}: received {}, delivered {}, dropped {}; latency {}", c.value("name", ""), c.value("received", 0),
                  c.value("delivered", 0), c.value("dropped", 0), histogram_text(c["latency_ns"]));
+    if (c.contains("watchdog")) {
+      const auto& w = c["watchdog"];
+      spdlog::info("    watchdog: {}, {} trips, {} recoveries, {} safe values, {} stale", w.value("state", ""),
+                   w.value("trips", 0), w.value("recoveries", 0), w.value("safe_values", 0), w.value("stale", 0));
+    }
   }
   for (const auto& s : stats["services"]) {
     spdlog::info("  {}: calls {}, ok {}, timeouts {}, errors {}", s.value("name", ""), s.value("calls", 0),
@@ -417,6 +434,13 @@ int run_daemon(const Options& options) {
   }
 
   std::vector<std::string> warnings;
+  engine.set_notifier([](const std::string& message, bool problem) {
+    if (problem) {
+      spdlog::warn("{}", message);
+    } else {
+      spdlog::info("{}", message);
+    }
+  });
   Result<void> started = engine.start(warnings);
   for (const std::string& warning : warnings) spdlog::warn("{}", warning);
   if (!started) {

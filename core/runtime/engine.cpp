@@ -2,6 +2,7 @@
 #include "polyport/runtime/engine.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -27,6 +28,20 @@ std::string join(const std::vector<std::string>& items) {
 }
 
 std::string type_name(const Port& port) { return port.type() ? port.type()->name : std::string(); }
+
+// A connection's policies beyond its queue, as check and stats show them.
+void describe_policies(const Connection& c, nlohmann::json& j) {
+  if (const ConnectionWatchdog* watchdog = c.watchdog()) {
+    nlohmann::json w{{"deadline_ns", watchdog->deadline().count}, {"safe_value_bytes", watchdog->safe_size()}};
+    if (watchdog->max_age().count > 0) w["max_age_ns"] = watchdog->max_age().count;
+    if (watchdog->upstream()) w["upstream"] = watchdog->upstream()->full_name();
+    j["watchdog"] = std::move(w);
+  }
+  if (c.rate_interval().count > 0) j["rate_limit_interval_ns"] = c.rate_interval().count;
+  for (const DeadbandField& band : c.deadbands()) {
+    j["deadbands"].push_back({{"field", band.path}, {"threshold", band.threshold}});
+  }
+}
 
 }  // namespace
 
@@ -59,7 +74,20 @@ bool Engine::build(const ApplicationProfile& profile, Diagnostics& diagnostics) 
       continue;
     }
     auto connected = connect_ports(*source, *target, spec.policy, spec.depth, spec.program);
-    if (!connected) diagnostics.error(spec.where, {}, connected.error().message);
+    if (!connected) {
+      diagnostics.error(spec.where, {}, connected.error().message);
+      continue;
+    }
+    Connection* connection = connected.value();
+    if (connection == nullptr) continue;  // a service connection
+    if (spec.watchdog) {
+      auto watched = add_watchdog(*connection, *spec.watchdog);
+      if (!watched) diagnostics.error(spec.watchdog->where, {}, watched.error().message);
+    }
+    if (auto limited = add_rate_policies(*connection, spec); !limited) {
+      diagnostics.error(spec.where, {}, limited.error().message);
+    }
+    if (connection->watchdog() || connection->rate_interval().count > 0) timer_.add(*connection);
   }
   return !diagnostics.has_errors();
 }
@@ -115,6 +143,54 @@ Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optio
   in->connections().add(connection);
   out->connections().add(connection);
   return &connection;
+}
+
+// The safe value is made once here: the profile's constants in the target's flat layout,
+// encoded in the target's wire format.
+Result<void> Engine::add_watchdog(Connection& connection, const WatchdogSpec& spec) {
+  const DataInPort& target = connection.target();
+  if (!spec.safe_program || !target.type()) return make_error("the watchdog's safe value has no type to take");
+  const DataOutPort* upstream = nullptr;
+  if (spec.upstream) {
+    upstream = dynamic_cast<const DataOutPort*>(find_port(spec.upstream->component + "." + spec.upstream->port));
+    if (!upstream) return make_error("the watchdog's upstream port was not created by its model");
+  }
+  const std::uint32_t flat_capacity = std::max(target.type()->size, target.max_sample_bytes());
+  std::vector<std::byte> zero(target.type()->size), flat(flat_capacity);
+  std::uint32_t flat_size = 0;
+  if (!spec.safe_program->run(zero.data(), static_cast<std::uint32_t>(zero.size()), flat.data(), flat_capacity,
+                              flat_size)) {
+    return make_error("the watchdog's safe value could not be made for " + target.full_name());
+  }
+  flat.resize(flat_size);
+  std::vector<std::byte> safe = std::move(flat);
+  if (const Codec* codec = target.codec()) {
+    std::vector<std::byte> wire(codec->max_wire_size(flat_size));
+    const CodecResult encoded = codec->encode(safe.data(), flat_size, wire.data(), static_cast<std::uint32_t>(wire.size()));
+    if (!encoded.ok()) return make_error("the watchdog's safe value cannot be encoded for " + target.full_name());
+    wire.resize(encoded.size);
+    safe = std::move(wire);
+  }
+  connection.set_watchdog(std::make_unique<ConnectionWatchdog>(connection.source(), upstream, Nanos{spec.deadline_ns},
+                                                               Nanos{spec.max_age_ns}, std::move(safe)));
+  return {};
+}
+
+Result<void> Engine::add_rate_policies(Connection& connection, const ConnectionSpec& spec) {
+  if (spec.rate_limit_per_second) {
+    connection.set_rate_limit(Nanos{static_cast<std::int64_t>(std::llround(1e9 / *spec.rate_limit_per_second))});
+  }
+  if (spec.deadbands.empty()) return {};
+  const Type* type = connection.source().type();
+  if (type == nullptr) return make_error("a deadband needs a data type on " + connection.source().full_name());
+  std::vector<DeadbandField> fields;
+  for (const DeadbandSpec& band : spec.deadbands) {
+    const FieldPathResult found = find_field_path(*type, band.field);
+    if (!found.place) return make_error("deadband field '" + band.field + "' not found in '" + type->name + "'");
+    fields.push_back(DeadbandField{found.place->offset, found.place->type->kind, band.threshold, band.field});
+  }
+  connection.set_deadbands(std::move(fields));
+  return {};
 }
 
 Result<Connection*> Engine::connect(const std::string& source_component, const std::string& source_port,
@@ -190,6 +266,7 @@ Result<void> Engine::start(std::vector<std::string>& warnings) {
       return make_error("component '" + node.name + "' did not start: " + started.error().message);
     }
   }
+  timer_.start(notify_);
   return {};
 }
 
@@ -235,6 +312,7 @@ std::vector<std::size_t> Engine::receivers_first() const {
 void Engine::stop() {
   if (!started_) return;
   started_ = false;
+  timer_.stop();  // no safe value or held sample goes to a component that is stopping
   for (auto it = start_order_.rbegin(); it != start_order_.rend(); ++it) nodes_[*it].proxy.interceptor->stop();
   start_order_.clear();
   executors_.stop_all();
@@ -300,6 +378,7 @@ void Engine::describe(nlohmann::json& out) const {
                      {"mode", c->push_mode() ? "push" : "pull"},
                      {"conversion", c->conversion()}};
     if (c->policy() != QueuePolicy::data) j["depth"] = c->depth();
+    describe_policies(*c, j);
     out["connections"].push_back(std::move(j));
   }
   for (const auto& [required, provided] : service_links_) {
@@ -366,6 +445,21 @@ void Engine::stats(nlohmann::json& out) const {
     if (!c->push_mode()) j["age_at_read_ns"] = to_json(c->age().summarize());
     if (c->push_mode()) j["sink_ns"] = to_json(c->sink_time().summarize());
     if (const auto transit = c->transit().summarize(); transit.count != 0) j["transit_ns"] = to_json(transit);
+    describe_policies(*c, j);
+    if (c->rate_interval().count > 0 || !c->deadbands().empty()) {
+      j["dropped_by_reason"]["rate_limited"] = load(k.dropped_rate_limited);
+      j["dropped_by_reason"]["filtered"] = load(k.dropped_filtered);
+    }
+    if (const ConnectionWatchdog* watchdog = c->watchdog()) {
+      nlohmann::json& w = j["watchdog"];
+      const WatchdogCounters& wk = watchdog->counters();
+      w["state"] = to_string(watchdog->state());
+      w["trips"] = load(wk.trips);
+      w["recoveries"] = load(wk.recoveries);
+      w["safe_values"] = load(wk.safe_values);
+      w["stale"] = load(wk.stale);
+      j["dropped_by_reason"]["stale"] = load(k.dropped_stale);
+    }
     out["connections"].push_back(std::move(j));
   }
   out["services"] = nlohmann::json::array();

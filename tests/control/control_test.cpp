@@ -266,6 +266,43 @@ TEST_F(Control, DeactivateAndActivateAComponent) {
   EXPECT_EQ(state_of("Control"), "active");
 }
 
+// The wheelchair fails safe (profiles/wheelchair_inproc.xml): with the Joystick component
+// stopped, its reference goes silent and, 20 ms later, the watchdog on Control.voltages -> HW
+// hands HW zero volts; once the Joystick runs again, Control's command passes again.
+TEST_F(Control, StoppedJoystickTripsTheMotorWatchdogAndItsReturnRecovers) {
+  const auto watchdog = [&]() -> Json {
+    const Ctl s = ctl({"--json", "stats"});
+    EXPECT_EQ(s.code, 0) << s.err;
+    const Json j = s.json();
+    if (!j.is_discarded()) {
+      for (const Json& c : j["connections"]) {
+        if (c.value("target", "") == "HW.voltages" && c.contains("watchdog")) return c["watchdog"];
+      }
+    }
+    ADD_FAILURE() << "no watchdog on the connection to HW.voltages in " << s.out;
+    return Json::object();
+  };
+  ASSERT_TRUE(eventually([&] { return watchdog().value("state", "") == "ok"; }, 10s)) << watchdog().dump();
+  EXPECT_EQ(watchdog().value("upstream", ""), "Joystick.reference");
+  const std::uint64_t trips = watchdog().value("trips", std::uint64_t{0});
+
+  ASSERT_EQ(ctl({"deactivate", "Joystick"}).code, 0);
+  ASSERT_TRUE(eventually([&] { return watchdog().value("state", "") == "tripped"; }, 10s)) << watchdog().dump();
+  const Json tripped = watchdog();
+  EXPECT_EQ(tripped.value("trips", std::uint64_t{0}), trips + 1) << tripped.dump();
+  // HW reads every period: the safe value, new once.
+  ASSERT_TRUE(eventually([&] { return watchdog().value("safe_values", 0) > 0; }, 10s)) << watchdog().dump();
+  EXPECT_NE(daemon_->errors().find("watchdog Control.voltages -> HW.voltages: tripped, Joystick.reference silent"),
+            std::string::npos)
+      << daemon_->errors();
+
+  ASSERT_EQ(ctl({"activate", "Joystick"}).code, 0);
+  ASSERT_TRUE(eventually([&] { return watchdog().value("state", "") == "ok"; }, 10s)) << watchdog().dump();
+  EXPECT_EQ(watchdog().value("recoveries", std::uint64_t{0}), watchdog().value("trips", std::uint64_t{0}));
+  EXPECT_NE(daemon_->errors().find("watchdog Control.voltages -> HW.voltages: recovered"), std::string::npos)
+      << daemon_->errors();
+}
+
 TEST_F(Control, UnknownComponentAndUsageErrors) {
   const Ctl unknown = ctl({"activate", "Nobody"});
   EXPECT_EQ(unknown.code, 1);

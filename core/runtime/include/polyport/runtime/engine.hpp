@@ -14,6 +14,7 @@
 #include "polyport/runtime/connection.hpp"
 #include "polyport/runtime/execution_context.hpp"
 #include "polyport/runtime/model.hpp"
+#include "polyport/runtime/connection_timer.hpp"
 #include "polyport/profile/profile.hpp"
 #include "polyport/base/result.hpp"
 #include "polyport/types/types.hpp"
@@ -68,6 +69,9 @@ class Engine {
   // Statistics: per connection counters and histograms, per component lifecycle, per
   // execution context jitter and overruns, per service port call counters.
   void stats(nlohmann::json& out) const;
+  // Where watchdog state changes are told (from the connection timer thread); set before start().
+  void set_notifier(ConnectionTimer::Notify notify) { notify_ = std::move(notify); }
+
   // One line for the periodic summary on stderr.
   std::string summary_line() const;
 
@@ -83,6 +87,8 @@ class Engine {
   Result<Connection*> connect_ports(Port& source, Port& target, std::optional<QueuePolicy> policy,
                                     std::optional<std::uint32_t> depth,
                                     std::shared_ptr<const MappingProgram> mapping = nullptr);
+  Result<void> add_watchdog(Connection& connection, const WatchdogSpec& spec);
+  Result<void> add_rate_policies(Connection& connection, const ConnectionSpec& spec);
 
   const ModelRegistry& models_;
   TypeRegistry& types_;
@@ -96,6 +102,8 @@ class Engine {
   std::unique_ptr<Component> probes_;
   bool started_ = false;
   std::vector<std::size_t> start_order_;  // indexes into nodes_, in the order started
+  ConnectionTimer timer_;  // watchdogs and rate limits
+  ConnectionTimer::Notify notify_;
 };
 
 }  // namespace polyport
