@@ -224,9 +224,11 @@ Result<void> Engine::remove_connection(std::string_view source, std::string_view
     if (&c.target().owner() == probes_.get() || c.source().full_name() != source || c.target().full_name() != target) {
       continue;
     }
-    // The writer stops first, then the reader lets go of what was queued.
+    // The writer stops first, then the reader lets go of what was queued, then the timer
+    // (watchdog, rate limit) stops handing it anything.
     c.source().connections().remove(c);
     c.target().connections().remove(c);
+    timer_.remove(c);
     removed_.push_back(std::move(*it));
     connections_.erase(it);
     return {};

@@ -4,11 +4,15 @@
 // handed to the component on its execution context's thread (onPropertyChanged).
 #include <gtest/gtest.h>
 
+#include <atomic>
+
 #include <nlohmann/json.hpp>
 
 #include "inproc_model.hpp"
 #include "polyport/profile/runtime_checks.hpp"
 #include "polyport/runtime/component_api.hpp"
+#include "polyport/runtime/connection_timer.hpp"
+#include "polyport/runtime/watchdog.hpp"
 #include "polyport/runtime/engine.hpp"
 #include "../support/engine_fixture.hpp"
 #include "../support/eventually.hpp"
@@ -84,6 +88,52 @@ TEST(ForeignComponent, RefusesPropertyChangesAndSaysWhy) {
   EXPECT_EQ(foreign.set_property("rate", "5", why), ReturnCode::unsupported);
   EXPECT_EQ(why, "polyport cannot pass a property to a component of this model while it runs");
   EXPECT_EQ(foreign.properties(), nullptr);
+}
+
+// A connection removed at run time leaves the timer of the timed policies too: its watchdog
+// no longer trips and hands its target no safe value.
+class CountingSink : public SampleSink {
+ public:
+  Status on_sample(const std::byte*, const SampleMeta&) noexcept override {
+    count.fetch_add(1);
+    return Status::ok;
+  }
+  std::atomic<int> count{0};
+};
+
+TEST(RemovedConnection, LeavesTheTimer) {
+  Component a{"A", "inproc"};
+  Component b{"B", "inproc"};
+  DataOutPort& out = a.add_port<DataOutPort>("out", PortKind::data, nullptr, 8);
+  DataInPort& in = b.add_port<DataInPort>("in", PortKind::data, nullptr, 8, QueuePolicy::data, 1);
+  CountingSink sink;
+  in.set_sink(&sink);
+  const Nanos deadline{1'000'000};
+  auto watched = [&] {
+    auto c = std::make_unique<Connection>(out, in, QueuePolicy::data, 1);
+    c->set_watchdog(std::make_unique<ConnectionWatchdog>(out, nullptr, deadline, Nanos{}, std::vector<std::byte>(8)));
+    return c;
+  };
+  ConnectionTimer timer;
+  auto kept = watched();
+  auto removed = watched();  // the same two ports: it would hand the sink a safe value too
+  out.connections().add(*kept);
+  in.connections().add(*kept);
+  timer.add(*kept);
+  timer.add(*removed);
+  const std::uint64_t v = 7;
+  ASSERT_EQ(out.write(&v, sizeof v), Status::ok);
+  EXPECT_EQ(sink.count.load(), 1);
+  timer.check(mono_now());  // the source wrote: both watchdogs go from waiting to ok
+  EXPECT_EQ(removed->watchdog()->state(), WatchdogState::ok);
+  timer.remove(*removed);
+  // The source falls silent: the kept connection trips and hands the sink its safe value;
+  // the removed one is not looked at any more.
+  timer.check(mono_now() + Nanos{10 * deadline.count});
+  EXPECT_EQ(kept->watchdog()->counters().trips.load(), 1u);
+  EXPECT_EQ(removed->watchdog()->counters().trips.load(), 0u);
+  EXPECT_EQ(removed->watchdog()->state(), WatchdogState::ok);
+  EXPECT_EQ(sink.count.load(), 2);
 }
 
 class RuntimeChanges : public test::EngineFixture {
