@@ -298,6 +298,9 @@ class Loader {
       : types_(types), options_(options), diagnostics_(diagnostics), rules_(options.models) {}
 
   std::optional<ApplicationProfile> run(const fs::path& requested);
+  // One <port_connection> (the root of `xml`), checked against the components of
+  // `application` as run() checks a profile's connections (runtime_checks.cpp).
+  std::optional<ConnectionSpec> check_one(const ApplicationProfile& application, XmlFile& xml);
 
  private:
   // -- shared ----------------------------------------------------------------------------

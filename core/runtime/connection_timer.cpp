@@ -48,6 +48,12 @@ void ConnectionTimer::stop() {
   thread_.join();
 }
 
+void ConnectionTimer::remove(const Connection& connection) {
+  // The thread holds the mutex while it checks, and lets go of it only to sleep.
+  std::lock_guard<std::mutex> lock(mutex_);
+  connections_.erase(std::remove(connections_.begin(), connections_.end(), &connection), connections_.end());
+}
+
 MonoTime ConnectionTimer::check(MonoTime now) {
   MonoTime next = now + kMaxSleep;
   for (Connection* connection : connections_) {

@@ -236,6 +236,45 @@ Result<Connection*> Engine::connect(const std::string& source_component, const s
   return connect_ports(*source, *target, policy, depth);
 }
 
+Result<Connection*> Engine::add_connection(const ConnectionSpec& spec) {
+  const std::string source_name = spec.source.component + "." + spec.source.port;
+  const std::string target_name = spec.target.component + "." + spec.target.port;
+  Port* source = find_port(source_name);
+  Port* target = find_port(target_name);
+  if (!source) return make_error("no port " + source_name);
+  if (!target) return make_error("no port " + target_name);
+  for (const auto& c : connections_) {
+    if (&c->source() == source && &c->target() == target) {
+      return make_error(source_name + " is already connected to " + target_name);
+    }
+  }
+  return connect_ports(*source, *target, spec.policy, spec.depth, spec.program);
+}
+
+Result<void> Engine::remove_connection(std::string_view source, std::string_view target) {
+  for (auto it = connections_.begin(); it != connections_.end(); ++it) {
+    Connection& c = **it;
+    if (&c.target().owner() == probes_.get() || c.source().full_name() != source || c.target().full_name() != target) {
+      continue;
+    }
+    // The writer stops first, then the reader lets go of what was queued, then the timer
+    // (watchdog, rate limit) stops handing it anything.
+    c.source().connections().remove(c);
+    c.target().connections().remove(c);
+    timer_.remove(c);
+    removed_.push_back(std::move(*it));
+    connections_.erase(it);
+    return {};
+  }
+  for (const auto& [required, provided] : service_links_) {
+    if (required->full_name() == source && provided->full_name() == target) {
+      // Callers read the binding without a lock; it is fixed while the application runs.
+      return make_error("service connections cannot be removed while the application runs");
+    }
+  }
+  return make_error("no connection " + std::string(source) + " -> " + std::string(target));
+}
+
 Result<DataInPort*> Engine::add_probe(const std::string& port_path, std::uint32_t depth) {
   auto* out = dynamic_cast<DataOutPort*>(find_port(port_path));
   if (!out) return make_error("no output data port '" + port_path + "'");
@@ -410,7 +449,8 @@ void Engine::stats(nlohmann::json& out) const {
     out["components"].push_back(std::move(component));
   }
   out["connections"] = nlohmann::json::array();
-  for (const auto& c : connections_) {
+  // Removed ones too (remove_connection), marked: what flowed through them stays counted.
+  for (const auto* list : {&connections_, &removed_}) for (const auto& c : *list) {
     const ConnectionCounters& k = c->counters();
     auto load = [](const std::atomic<std::uint64_t>& v) { return v.load(std::memory_order_relaxed); };
     nlohmann::json j{{"name", c->name()},
@@ -420,6 +460,7 @@ void Engine::stats(nlohmann::json& out) const {
                      {"policy", to_string(c->policy())},
                      {"mode", c->push_mode() ? "push" : "pull"},
                      {"probe", &c->target().owner() == probes_.get()},
+                     {"removed", list == &removed_},
                      {"received", load(k.received)},
                      {"delivered", load(k.delivered)},
                      {"read", load(k.read)},

@@ -37,6 +37,9 @@ class ConnectionTimer {
   ~ConnectionTimer() { stop(); }
 
   void add(Connection& connection) { connections_.push_back(&connection); }
+  // Control thread, also while the thread runs (Engine::remove_connection): the thread no
+  // longer looks at `connection` once this returns.
+  void remove(const Connection& connection);
   bool empty() const noexcept { return connections_.empty(); }
   void start(Notify notify);
   void stop();

@@ -44,6 +44,15 @@ class Engine {
   Result<Connection*> connect(const std::string& source_component, const std::string& source_port,
                               const std::string& target_component, const std::string& target_port,
                               std::optional<QueuePolicy> policy, std::optional<std::uint32_t> depth);
+  // Run-time wiring (control thread): a data or event connection checked as the loader
+  // checks a profile's (polyport/profile/runtime_checks.hpp: check_connection), and the
+  // removal of one by its ends ("Component.port"). A connection already there is refused.
+  // A removed connection leaves both ports' lists at once, but its memory is kept until the
+  // engine is destroyed: a writer or reader may still be inside it, and the forwarding path
+  // takes no lock that would tell when it has left. Samples still queued in it are dropped;
+  // stats() keeps listing it, marked removed, with the counts it had.
+  Result<Connection*> add_connection(const ConnectionSpec& spec);
+  Result<void> remove_connection(std::string_view source, std::string_view target);
   // Adds a pull-mode probe on an output port ("Component.port"): an internal input port fed
   // by a circular connection that a tracer reads from another thread.
   Result<DataInPort*> add_probe(const std::string& port_path, std::uint32_t depth);
@@ -87,6 +96,7 @@ class Engine {
   ExecutionContextPool executors_;
   std::vector<Node> nodes_;
   std::vector<std::unique_ptr<Connection>> connections_;
+  std::vector<std::unique_ptr<Connection>> removed_;  // see remove_connection
   std::vector<std::shared_ptr<const MappingProgram>> mappings_;  // used by connections_
   std::vector<std::pair<RequiredServicePort*, ProvidedServicePort*>> service_links_;
   std::string name_;
