@@ -190,6 +190,7 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
       if (w.contains("max_age_ns")) out << " max_age=" << w.value("max_age_ns", 0) / 1e6 << " ms";
       if (w.contains("upstream")) out << " upstream=" << w["upstream"].get<std::string>();
     }
+    if (c.contains("poll_period_ns")) out << "  poll=" << c["poll_period_ns"].get<double>() / 1e6 << " ms";
     if (c.contains("rate_limit_interval_ns")) {
       out << "  rate_limit=" << 1e9 / c["rate_limit_interval_ns"].get<double>() << "/s";
     }

@@ -98,7 +98,7 @@ void Loader::check_connections(const Reporter& report, ApplicationProfile& app,
     const std::string source_name = spec.source.component + "." + spec.source.port;
     const std::string target_name = spec.target.component + "." + spec.target.port;
     check_watchdog(report, app, node, spec, target_ok ? target.port : nullptr);
-    check_rate_policies(report, node, spec, source_ok ? source.port : nullptr);
+    check_rate_policies(report, node, spec, source_ok ? source.port : nullptr, source.component);
 
     if (spec.kind == PortKind::service) {
       for (const std::string_view attribute : {"policy", "depth"}) {

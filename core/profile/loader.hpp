@@ -149,6 +149,7 @@ const std::vector<ChildRule> kConnectionRules = {
     {"mapping", {"mapping"}, false, {"by_name"}},
     {"watchdog", {"watchdog"}, false, {"deadline_ms", "max_age_ms"}},
     {"rate_limit", {"rate_limit"}, false, {"per_second"}},
+    {"poll", {"poll"}, false, {"period_ms"}},
     {"deadband", {"deadband"}, false, {}},
 };
 const std::vector<ChildRule> kDeadbandRules = {
@@ -352,7 +353,7 @@ class Loader {
   // Checks a connection's rate limit and deadbands: a data connection, deadband fields that
   // are numbers of the source's type.
   void check_rate_policies(const Reporter& report, pugi::xml_node node, ConnectionSpec& spec,
-                           const PortSpec* source);
+                           const PortSpec* source, const Subcomponent* source_component);
 
   // Checks a connection's watchdog against the graph: a data connection, an upstream output
   // data port, a safe value of constants that compiles for the target's type.

@@ -2,6 +2,7 @@
 //  - <watchdog>: its times, the upstream port whose silence also trips it, and the safe value
 //    it hands the target instead of stale samples;
 //  - <rate_limit per_second>: at most that many samples a second, newest wins;
+//  - <poll period_ms>: the newest sample every period, only when one came (JOrocos polling);
 //  - <deadband>: only samples where a <field name threshold> moved by more than its threshold.
 //
 //   <watchdog deadline_ms="20" max_age_ms="50">
@@ -35,18 +36,8 @@ std::int64_t read_ms(const Reporter& report, pugi::xml_node element, const char*
 }
 
 constexpr double kMaxRatePerSecond = 1e6;
+constexpr double kMinRatePerSecond = 0.001;  // one per 1000 s: the interval fits in nanoseconds
 constexpr const char* kWatchdogEventType = "polyport::WatchdogEvent";
-
-bool is_number(TypeKind kind) {
-  switch (kind) {
-    case TypeKind::int8: case TypeKind::uint8: case TypeKind::int16: case TypeKind::uint16:
-    case TypeKind::int32: case TypeKind::uint32: case TypeKind::int64: case TypeKind::uint64:
-    case TypeKind::float32: case TypeKind::float64: case TypeKind::octet:
-      return true;
-    default:
-      return false;
-  }
-}
 
 }  // namespace
 
@@ -57,11 +48,25 @@ void Loader::read_rate_policies(const Reporter& report, const Children& children
     const auto rate = parse_decimal(text);
     if (!attribute) {
       report.error(limit, "missing attribute 'per_second'");
-    } else if (!rate || *rate <= 0.0 || *rate > kMaxRatePerSecond) {
+    } else if (!rate || *rate < kMinRatePerSecond || *rate > kMaxRatePerSecond) {
       report.error_attribute(limit, "per_second",
-                             "bad per_second " + in_quotes(text) + ": expected a decimal above 0 and at most 1000000");
+                             "bad per_second " + in_quotes(text) + ": expected a decimal from 0.001 to 1000000");
     } else {
       spec.rate_limit_per_second = *rate;
+    }
+  }
+  if (const pugi::xml_node poll = children.one("poll")) {
+    const pugi::xml_attribute attribute = poll.attribute("period_ms");
+    const std::string text(trim(attribute.value()));
+    const auto period = parse_decimal(text);
+    if (!attribute) {
+      report.error(poll, "missing attribute 'period_ms'");
+    } else if (!period || *period <= 0.0 || *period > kMaxWatchdogMs) {
+      report.error_attribute(poll, "period_ms", "bad period_ms " + in_quotes(text) + ": " + kWatchdogMsExpected);
+    } else if (spec.rate_limit_per_second) {
+      report.error(poll, "a connection either polls or has a rate limit, not both");
+    } else {
+      spec.poll_period_ms = *period;
     }
   }
   const pugi::xml_node deadband_node = children.one("deadband");
@@ -96,17 +101,35 @@ void Loader::read_rate_policies(const Reporter& report, const Children& children
 }
 
 void Loader::check_rate_policies(const Reporter& report, pugi::xml_node node, ConnectionSpec& spec,
-                                 const PortSpec* source) {
+                                 const PortSpec* source, const Subcomponent* source_component) {
   if (spec.kind != PortKind::data) {
-    for (const char* name : {"rate_limit", "deadband"}) {
+    for (const auto& [name, what] : {std::pair<const char*, const char*>{"rate_limit", "a rate limit"},
+                                     {"poll", "polling"},
+                                     {"deadband", "a deadband"}}) {
       for (const pugi::xml_node element : node.children(name)) {
-        report.error(element, "a " + std::string(name == std::string("deadband") ? "deadband" : "rate limit") +
-                                  " applies only to data connections");
+        report.error(element, std::string(what) + " applies only to data connections");
       }
     }
     spec.rate_limit_per_second.reset();
+    spec.poll_period_ms.reset();
     spec.deadbands.clear();
     return;
+  }
+  // JOrocos: a poller slower than twice the producer's rate would miss its samples. The rate
+  // is known for in-process periodic components; other models produce when they like.
+  if (spec.poll_period_ms && source_component != nullptr && source_component->profile.model == "inproc" &&
+      is_periodic(source_component->profile.execution.type) && source_component->profile.execution.period_ms > 0.0 &&
+      *spec.poll_period_ms > source_component->profile.execution.period_ms / 2.0) {
+    const auto ms = [](double value) {
+      std::ostringstream out;
+      out << value;
+      return out.str();
+    };
+    report.error_attribute(node.child("poll"), "period_ms",
+                           "polls every " + ms(*spec.poll_period_ms) + " ms, slower than twice the rate of " +
+                               source_component->name + " (period " +
+                               ms(source_component->profile.execution.period_ms) + " ms): poll every " +
+                               ms(source_component->profile.execution.period_ms / 2.0) + " ms or faster");
   }
   if (spec.deadbands.empty() || source == nullptr || source->data_type.empty()) return;
   const Type* type = types_.find(source->data_type);

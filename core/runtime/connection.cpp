@@ -61,13 +61,12 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
   if (watchdog_) {
     // The source wrote this sample now; what can make it unusable is a silent upstream or
     // its own age.
-    if (watchdog_->too_old(meta, meta.t_in)) {
+    // A replaced sample is a drop (stale); the safe value that goes instead is counted by the
+    // watchdog, not as delivered.
+    const bool too_old = watchdog_->too_old(meta, meta.t_in);
+    if (too_old || !watchdog_->fresh(meta.t_in)) {
       counters_.dropped_stale.fetch_add(1, std::memory_order_relaxed);
-      watchdog_->counters().stale.fetch_add(1, std::memory_order_relaxed);
-      hand_over_safe(meta);
-      return;
-    }
-    if (!watchdog_->fresh(meta.t_in)) {
+      if (too_old) watchdog_->counters().stale.fetch_add(1, std::memory_order_relaxed);
       hand_over_safe(meta);
       return;
     }
@@ -82,6 +81,10 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
   if (const Codec* codec = source_.codec()) {
     const CodecResult decoded = codec->decode(bytes, converted.size, decoded_.get(), flat_capacity_);
     if (!decoded.ok()) {
+      if (!converts_) {
+        forward(data, meta);  // a passthrough forwards what it cannot judge, as without a deadband
+        return;
+      }
       counters_.dropped_decode_error.fetch_add(1, std::memory_order_relaxed);
       return;
     }
@@ -145,15 +148,21 @@ double number_at(const std::byte* flat, const DeadbandField& field) noexcept {
 
 // Writer thread. The first sample passes; later ones when any field moved by more than its
 // threshold since the last one that passed.
+// A NaN moves to or from a number; after a safe value went out (deadband_primed_ cleared),
+// the next sample passes whatever it is, so the target leaves the safe value.
 bool Connection::passes_deadbands(const std::byte* flat) noexcept {
-  bool passes = !deadband_primed_;
+  bool passes = !deadband_primed_.load(std::memory_order_relaxed);
   for (std::size_t i = 0; i < deadbands_.size(); ++i) {
-    deadband_now_[i] = number_at(flat, deadbands_[i]);
-    if (!passes && std::abs(deadband_now_[i] - deadband_last_[i]) > deadbands_[i].threshold) passes = true;
+    const double now = number_at(flat, deadbands_[i]);
+    const double last = deadband_last_[i];
+    deadband_now_[i] = now;
+    if (!passes && (std::isnan(now) != std::isnan(last) || std::abs(now - last) > deadbands_[i].threshold)) {
+      passes = true;
+    }
   }
   if (passes) {
     std::copy(deadband_now_.begin(), deadband_now_.end(), deadband_last_.begin());
-    deadband_primed_ = true;
+    deadband_primed_.store(true, std::memory_order_relaxed);
   }
   return passes;
 }
@@ -168,10 +177,14 @@ void Connection::forward(const std::byte* data, const SampleMeta& meta) noexcept
 
 // Newest wins: a sample whose turn has not come is held (replacing one held before); the
 // timer thread hands it over when its turn comes, unless a newer sample arrives after it.
+// Polling: every sample is held, and the timer thread hands the newest over at each tick.
 void Connection::hand_over_limited(const std::byte* data, const SampleMeta& meta) noexcept {
-  enter();
+  if (!enter()) {
+    counters_.dropped_sink_error.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
   const bool held_before = has_held_.load(std::memory_order_relaxed);
-  if (meta.t_in.ns - last_sent_.load(std::memory_order_relaxed) >= interval_.count) {
+  if (!poll_ && meta.t_in.ns - last_sent_.load(std::memory_order_relaxed) >= interval_.count) {
     if (held_before) has_held_.store(false, std::memory_order_relaxed);
     last_sent_.store(meta.t_in.ns, std::memory_order_relaxed);
     hand_over_claimed(data, meta);
@@ -194,15 +207,36 @@ MonoTime Connection::held_due() const noexcept {
   return MonoTime{last_sent_.load(std::memory_order_relaxed) + interval_.count};
 }
 
+void Connection::set_poll(Nanos period) {
+  set_rate_limit(period);
+  poll_ = true;
+}
+
 bool Connection::release_held(MonoTime now) noexcept {
   if (!try_enter()) return false;  // the writer has the connection right now
-  if (has_held_.load(std::memory_order_relaxed) && now.ns - last_sent_.load(std::memory_order_relaxed) >= interval_.count) {
+  if (has_held_.load(std::memory_order_relaxed) &&
+      (poll_ || now.ns - last_sent_.load(std::memory_order_relaxed) >= interval_.count)) {
     has_held_.store(false, std::memory_order_relaxed);
-    last_sent_.store(now.ns, std::memory_order_relaxed);
-    hand_over_claimed(held_.get(), held_meta_);
+    if (watchdog_ && !watchdog_->fresh(now)) {
+      // Held from before the watchdog tripped: the target keeps the safe value.
+      counters_.dropped_stale.fetch_add(1, std::memory_order_relaxed);
+    } else {
+      last_sent_.store(now.ns, std::memory_order_relaxed);
+      hand_over_claimed(held_.get(), held_meta_);
+    }
   }
   leave();
   return true;
+}
+
+// A safe value goes out (claimed): a held sample must not follow it, and the deadband must let
+// the next sample through.
+void Connection::safe_value_sent() noexcept {
+  if (has_held_.load(std::memory_order_relaxed)) {
+    has_held_.store(false, std::memory_order_relaxed);
+    counters_.dropped_stale.fetch_add(1, std::memory_order_relaxed);
+  }
+  deadband_primed_.store(false, std::memory_order_relaxed);
 }
 
 void Connection::set_rate_limit(Nanos interval) {
@@ -228,23 +262,66 @@ void Connection::set_watchdog(std::unique_ptr<ConnectionWatchdog> watchdog) {
   if (push_mode()) guarded_ = true;
 }
 
-void Connection::enter() noexcept {
-  while (busy_.exchange(true, std::memory_order_acquire)) {
+namespace {
+// A per-thread address: who holds a connection's hand-over flag.
+const void* this_thread_token() noexcept {
+  thread_local const char token = 0;
+  return &token;
+}
+}  // namespace
+
+bool Connection::enter() noexcept {
+  const void* me = this_thread_token();
+  if (holder_.load(std::memory_order_relaxed) == me) return false;  // re-entered from its own sink
+  for (int spins = 0; busy_.exchange(true, std::memory_order_acquire); ++spins) {
+    if (spins < 256) {
 #if defined(__x86_64__) || defined(__i386__)
-    __builtin_ia32_pause();
+      __builtin_ia32_pause();
 #endif
+      continue;
+    }
+    // The timer thread holds it for one hand-over; if that thread is not running (a writer
+    // at a real-time priority on its CPU), sleep on the flag so that it can finish.
+    waiters_.fetch_add(1, std::memory_order_relaxed);
+    busy_.wait(true, std::memory_order_relaxed);
+    waiters_.fetch_sub(1, std::memory_order_relaxed);
   }
+  holder_.store(me, std::memory_order_relaxed);
+  return true;
 }
 
-void Connection::hand_over(const std::byte* data, const SampleMeta& meta) noexcept {
-  if (guarded_) enter();
-  hand_over_claimed(data, meta);
-  if (guarded_) leave();
+bool Connection::try_enter() noexcept {
+  if (busy_.exchange(true, std::memory_order_acquire)) return false;
+  holder_.store(this_thread_token(), std::memory_order_relaxed);
+  return true;
 }
 
-void Connection::hand_over_claimed(const std::byte* data, const SampleMeta& meta) noexcept {
+void Connection::leave() noexcept {
+  holder_.store(nullptr, std::memory_order_relaxed);
+  busy_.store(false, std::memory_order_release);
+  if (waiters_.load(std::memory_order_relaxed) != 0) busy_.notify_all();
+}
+
+void Connection::hand_over(const std::byte* data, const SampleMeta& meta, bool count) noexcept {
+  if (!guarded_) {
+    hand_over_claimed(data, meta, count);
+    return;
+  }
+  if (!enter()) {
+    // The target's own sink wrote into this connection again: refused, not a deadlock.
+    counters_.dropped_sink_error.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  hand_over_claimed(data, meta, count);
+  leave();
+}
+
+// `count`: false for a safe value, which the watchdog counts and which is no sample of the
+// connection's.
+void Connection::hand_over_claimed(const std::byte* data, const SampleMeta& meta, bool count) noexcept {
   if (!buffer_) {
     const Status status = to_sink(data, meta);
+    if (!count) return;
     if (status == Status::ok) {
       counters_.delivered.fetch_add(1, std::memory_order_relaxed);
     } else {
@@ -256,6 +333,7 @@ void Connection::hand_over_claimed(const std::byte* data, const SampleMeta& meta
   const MonoTime stored = mono_now();
   latency_.record((stored - meta.t_in).count);
   if (meta.t_source.ns != 0) transit_.record((stored - meta.t_source).count);
+  if (!count) return;
   switch (result) {
     case PushResult::stored:
       counters_.delivered.fetch_add(1, std::memory_order_relaxed);
@@ -290,17 +368,33 @@ Status Connection::to_sink(const std::byte* data, const SampleMeta& meta) noexce
 // The safe value instead of a sample (already in the target's format: no conversion).
 void Connection::hand_over_safe(const SampleMeta& meta) noexcept {
   watchdog_->counters().safe_values.fetch_add(1, std::memory_order_relaxed);
-  hand_over(watchdog_->safe_bytes(), SampleMeta{watchdog_->safe_size(), meta.t_in, {}});
+  const SampleMeta safe{watchdog_->safe_size(), meta.t_in, {}};
+  if (!guarded_) {
+    safe_value_sent();
+    hand_over_claimed(watchdog_->safe_bytes(), safe, false);
+    return;
+  }
+  if (!enter()) {
+    counters_.dropped_sink_error.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  safe_value_sent();
+  hand_over_claimed(watchdog_->safe_bytes(), safe, false);
+  leave();
 }
 
-bool Connection::emit_safe_value(MonoTime now) noexcept {
-  if (!watchdog_ || buffer_) return false;  // pull-mode readers take it themselves
-  if (!try_enter()) return false;  // a sample is on its way to the sink right now
-  watchdog_->counters().safe_values.fetch_add(1, std::memory_order_relaxed);
+Connection::SafeValueResult Connection::emit_safe_value(MonoTime now) noexcept {
+  if (!watchdog_ || buffer_) return SafeValueResult::sent;  // pull-mode readers take it themselves
+  if (!try_enter()) return SafeValueResult::busy;  // a sample is on its way to the sink right now
+  safe_value_sent();
   const Status status = to_sink(watchdog_->safe_bytes(), SampleMeta{watchdog_->safe_size(), now, {}});
   leave();
-  if (status != Status::ok) counters_.dropped_sink_error.fetch_add(1, std::memory_order_relaxed);
-  return true;
+  if (status != Status::ok) {
+    watchdog_->counters().safe_value_errors.fetch_add(1, std::memory_order_relaxed);
+    return SafeValueResult::refused;
+  }
+  watchdog_->counters().safe_values.fetch_add(1, std::memory_order_relaxed);
+  return SafeValueResult::sent;
 }
 
 PopResult Connection::take(std::byte* dst, std::uint32_t capacity, SampleMeta& meta) noexcept {
@@ -317,6 +411,9 @@ PopResult Connection::take(std::byte* dst, std::uint32_t capacity, SampleMeta& m
   const MonoTime now = mono_now();
   if (!watchdog_->fresh(now)) return take_safe(dst, capacity, meta, now);
   const PopResult result = buffer_->pop(dst, capacity, meta);
+  if (result == PopResult::old_data && reader_has_safe_) {
+    return take_safe(dst, capacity, meta, now);  // nothing new since the safe value: keep it
+  }
   if (result == PopResult::new_data) {
     if (watchdog_->too_old(meta, now)) {
       counters_.dropped_stale.fetch_add(1, std::memory_order_relaxed);

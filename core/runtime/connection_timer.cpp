@@ -95,8 +95,18 @@ MonoTime ConnectionTimer::check_watchdog(Connection& connection, MonoTime now) {
   // A push-mode target whose source is silent gets the safe value from here, once; one whose
   // source still writes gets it from the forwarding path (Connection::deliver), and a
   // pull-mode reader from Connection::take.
-  if (!watchdog.safe_written_ && connection.push_mode()) watchdog.safe_written_ = connection.emit_safe_value(now);
-  return now + (watchdog.safe_written_ || !connection.push_mode() ? kRecoveryPoll : kRetry);
+  if (!connection.push_mode()) return now + kRecoveryPoll;
+  if (watchdog.safe_written_) return now + kRecoveryPoll;
+  switch (connection.emit_safe_value(now)) {
+    case Connection::SafeValueResult::sent:
+      watchdog.safe_written_ = true;
+      return now + kRecoveryPoll;
+    case Connection::SafeValueResult::busy:
+      return now + kRetry;  // the writer has the sink this moment
+    case Connection::SafeValueResult::refused:
+      return now + kRecoveryPoll;  // the target refused it (counted): again in a while
+  }
+  return now + kRecoveryPoll;
 }
 
 // The watchdog's event port, if it has one: a fixed-size sample, written on this thread.
@@ -118,6 +128,15 @@ void ConnectionTimer::tell(ConnectionWatchdog& watchdog, std::int32_t kind, std:
 }
 
 MonoTime ConnectionTimer::check_rate_limit(Connection& connection, MonoTime now) {
+  if (connection.polled()) {
+    // Fixed ticks from the first pass; ticks missed (a late wake) are skipped, not caught up.
+    const std::int64_t period = connection.rate_interval().count;
+    if (connection.next_poll == 0) connection.next_poll = now.ns + period;
+    if (now.ns < connection.next_poll) return MonoTime{connection.next_poll};
+    if (connection.held_due().ns != 0 && !connection.release_held(now)) return now + kRetry;
+    connection.next_poll += ((now.ns - connection.next_poll) / period + 1) * period;
+    return MonoTime{connection.next_poll};
+  }
   const MonoTime due = connection.held_due();
   if (due.ns == 0) return now + std::max(Nanos{connection.rate_interval().count / 4}, kRetry);
   if (now < due) return due;

@@ -38,7 +38,7 @@ void describe_policies(const Connection& c, nlohmann::json& j) {
     if (watchdog->upstream()) w["upstream"] = watchdog->upstream()->full_name();
     j["watchdog"] = std::move(w);
   }
-  if (c.rate_interval().count > 0) j["rate_limit_interval_ns"] = c.rate_interval().count;
+  if (c.rate_interval().count > 0) j[c.polled() ? "poll_period_ns" : "rate_limit_interval_ns"] = c.rate_interval().count;
   for (const DeadbandField& band : c.deadbands()) {
     j["deadbands"].push_back({{"field", band.path}, {"threshold", band.threshold}});
   }
@@ -183,7 +183,7 @@ Result<void> Engine::add_watchdog(Connection& connection, const WatchdogSpec& sp
   return {};
 }
 
-// An engine-owned output port ("watchdogs.<target of the watched connection>") connected to
+// An engine-owned output port ("watchdogs.<the watched connection>") connected to
 // the profile's <event> port, whose type must have WatchdogEventSample's layout.
 Result<DataOutPort*> Engine::watchdog_events(const Connection& watched, const ConnectionEnd& end) {
   Port* target = find_port(end.component + "." + end.port);
@@ -202,7 +202,7 @@ Result<DataOutPort*> Engine::watchdog_events(const Connection& watched, const Co
     return make_error("polyport::WatchdogEvent is not the type of config/types/watchdog_event.idl");
   }
   if (!watchdog_events_) watchdog_events_ = std::make_unique<Component>("watchdogs", "inproc");
-  auto& out = watchdog_events_->add_port<DataOutPort>(watched.target().full_name(), target->kind(), type,
+  auto& out = watchdog_events_->add_port<DataOutPort>(watched.name(), target->kind(), type,
                                                       static_cast<std::uint32_t>(sizeof(WatchdogEventSample)));
   auto connected = connect_ports(out, *target, std::nullopt, std::nullopt);
   if (!connected) return connected.error();
@@ -213,6 +213,7 @@ Result<void> Engine::add_rate_policies(Connection& connection, const ConnectionS
   if (spec.rate_limit_per_second) {
     connection.set_rate_limit(Nanos{static_cast<std::int64_t>(std::llround(1e9 / *spec.rate_limit_per_second))});
   }
+  if (spec.poll_period_ms) connection.set_poll(Nanos{static_cast<std::int64_t>(std::llround(*spec.poll_period_ms * 1e6))});
   if (spec.deadbands.empty()) return {};
   const Type* type = connection.source().type();
   if (type == nullptr) return make_error("a deadband needs a data type on " + connection.source().full_name());
@@ -220,6 +221,9 @@ Result<void> Engine::add_rate_policies(Connection& connection, const ConnectionS
   for (const DeadbandSpec& band : spec.deadbands) {
     const FieldPathResult found = find_field_path(*type, band.field);
     if (!found.place) return make_error("deadband field '" + band.field + "' not found in '" + type->name + "'");
+    if (!is_number(found.place->type->kind)) {
+      return make_error("deadband field '" + band.field + "' of '" + type->name + "' is not a number");
+    }
     fields.push_back(DeadbandField{found.place->offset, found.place->type->kind, band.threshold, band.field});
   }
   connection.set_deadbands(std::move(fields));

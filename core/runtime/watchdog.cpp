@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 
 #include "polyport/runtime/port.hpp"
 
@@ -26,6 +27,7 @@ MonoTime ConnectionWatchdog::last_write(const DataOutPort& port) noexcept { retu
 
 void ConnectionWatchdog::set_events(DataOutPort* port, const std::string& connection_name) {
   events_ = port;
+  std::memset(&event_, 0, sizeof event_);  // padding too: the sample is copied whole
   std::snprintf(event_.connection, sizeof event_.connection, "%s", connection_name.c_str());
 }
 

@@ -339,6 +339,17 @@ const Field* Type::find_field(std::string_view field_name) const noexcept {
   return nullptr;
 }
 
+bool is_number(TypeKind kind) noexcept {
+  switch (kind) {
+    case TypeKind::int8: case TypeKind::uint8: case TypeKind::int16: case TypeKind::uint16:
+    case TypeKind::int32: case TypeKind::uint32: case TypeKind::int64: case TypeKind::uint64:
+    case TypeKind::float32: case TypeKind::float64: case TypeKind::octet:
+      return true;
+    default:
+      return false;
+  }
+}
+
 bool Type::is_primitive() const noexcept {
   return kind >= TypeKind::boolean && kind <= TypeKind::float64;
 }

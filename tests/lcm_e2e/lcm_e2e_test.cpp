@@ -142,10 +142,12 @@ TEST_F(LcmEndToEnd, LcmToLcmPassesEveryFieldThrough) {
 // Connection policies between applications built with lcm-gen, on passthrough connections
 // (the deadband decodes the LCM bytes to compare, and forwards them as they came): a deadband
 // lets every third pose through (x steps by 0.5, the threshold is 1.2), and a rate limit of 20
-// per second on a 200 per second publisher delivers the newest pose once the publisher stops.
+// per second on a 200 per second publisher delivers the newest pose once the publisher stops,
+// and so does polling every 40 ms.
 TEST_F(LcmEndToEnd, DeadbandAndRateLimitBetweenLcmApplications) {
   auto sub = lcm_peer("sub", {"sub", kUrl, "POSE_OUT"});
   auto limited = lcm_peer("limited", {"sub", kUrl, "POSE_LIMITED"});
+  auto polled = lcm_peer("polled", {"sub", kUrl, "POSE_POLLED"});
   auto daemon = this->daemon(app("policies_app.xml"));
   auto pub = lcm_peer("pub", {"pub", kUrl, "POSE_IN", "5"});
   ASSERT_TRUE(eventually([&] { return poses(*sub).size() >= 10 && poses(*limited).size() >= 3; }, 30s))
@@ -162,6 +164,14 @@ TEST_F(LcmEndToEnd, DeadbandAndRateLimitBetweenLcmApplications) {
     const auto got = poses(*limited);
     return !got.empty() && got.back()["id"].get<long long>() == last_published;
   }, 10s)) << "limited got " << poses(*limited).size() << " poses, the last published was " << last_published;
+  // Polling: the newest pose at each tick, the last one too.
+  ASSERT_TRUE(eventually([&] {
+    const auto got = poses(*polled);
+    return !got.empty() && got.back()["id"].get<long long>() == last_published;
+  }, 10s)) << "polled got " << poses(*polled).size() << " poses, the last published was " << last_published;
+  const std::vector<Json> sampled = poses(*polled);
+  for (const Json& pose : sampled) expect_pose(pose);
+  expect_increasing(sampled);
 
   const std::vector<Json> banded = poses(*sub);
   for (const Json& pose : banded) expect_pose(pose);
@@ -189,6 +199,11 @@ TEST_F(LcmEndToEnd, DeadbandAndRateLimitBetweenLcmApplications) {
   EXPECT_EQ(delivered + (*rate)["dropped_by_reason"]["rate_limited"].get<long long>(), received) << rate->dump(2);
   EXPECT_LT(delivered, received) << rate->dump(2);
   EXPECT_EQ(delivered, static_cast<long long>(rated.size())) << rate->dump(2);
+  const Json* poll = connection(stats, "source.pose -> polled.pose");
+  ASSERT_NE(poll, nullptr);
+  EXPECT_EQ((*poll)["poll_period_ns"], 40'000'000) << poll->dump(2);
+  EXPECT_LT((*poll)["delivered"].get<long long>(), (*poll)["received"].get<long long>()) << poll->dump(2);
+  EXPECT_EQ((*poll)["delivered"].get<long long>(), static_cast<long long>(sampled.size())) << poll->dump(2);
 }
 
 TEST_F(LcmEndToEnd, WrongAndCutShortMessagesAreCountedAndDropped) {

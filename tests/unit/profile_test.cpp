@@ -696,7 +696,7 @@ TEST_F(ProfileMappings, ReadsWatchdogsAndCompilesTheirSafeValues) {
   const auto app = load("watchdog/valid_app.xml");
   ASSERT_TRUE(app.has_value()) << ::testing::PrintToString(messages());
   EXPECT_TRUE(diagnostics_.all().empty()) << ::testing::PrintToString(messages());
-  ASSERT_EQ(app->connections.size(), 3U);
+  ASSERT_EQ(app->connections.size(), 4U);
 
   const ConnectionSpec& temp = app->connections[0];
   EXPECT_FALSE(temp.rate_limit_per_second.has_value());
@@ -739,6 +739,27 @@ TEST_F(ProfileMappings, ReadsWatchdogsAndCompilesTheirSafeValues) {
   EXPECT_EQ(accel.deadbands[1].field, "seq");
   EXPECT_EQ(accel.deadbands[1].threshold, 0.0);
   EXPECT_EQ(accel.deadbands[1].where.line, 32U);
+  EXPECT_FALSE(accel.poll_period_ms.has_value());
+
+  // Polling a source of another model (its rate is its own): accepted.
+  const ConnectionSpec& pose = app->connections[3];
+  ASSERT_TRUE(pose.poll_period_ms.has_value());
+  EXPECT_EQ(*pose.poll_period_ms, 2.5);
+  EXPECT_FALSE(pose.rate_limit_per_second.has_value());
+}
+
+// Polling an in-process periodic source slower than twice its rate is refused (JOrocos).
+TEST_F(ProfileMappings, PollingSlowerThanTwiceTheSourcesRateIsRefused) {
+  EXPECT_FALSE(load("watchdog/poll_app.xml").has_value());
+  const std::string file = "watchdog/poll_app.xml:";
+  const std::string connection = "/application_profile/port_connections/port_connection";
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      file + "21:7: " + connection + "[2]/poll: a connection either polls or has a rate limit, not both",
+      file + "15:24: " + connection + "[1]/poll/@period_ms: polls every 6 ms, slower than twice the rate of "
+      "Joystick (period 10 ms): poll every 5 ms or faster",
+      file + "20:7: " + connection + "[2]/rate_limit: a rate limit applies only to data connections",
+      file + "21:7: " + connection + "[2]/poll: polling applies only to data connections",
+  }));
 }
 
 TEST_F(ProfileMappings, EveryWatchdogProblemAtItsPlace) {
@@ -756,8 +777,8 @@ TEST_F(ProfileMappings, EveryWatchdogProblemAtItsPlace) {
       file + "18:30: " + connection + "[2]/watchdog/@deadline_ms: bad deadline_ms '0'" + expected_ms,
       file + "25:11: " + connection + "[3]/watchdog/safe_value/field: a safe value sets constants only: give "
       "'value', not 'source' or a transform",
-      file + "64:31: " + connection + "[8]/rate_limit/@per_second: bad per_second '0': expected a decimal above 0 "
-      "and at most 1000000",
+      file + "64:31: " + connection + "[8]/rate_limit/@per_second: bad per_second '0': expected a decimal from 0.001 "
+      "to 1000000",
       file + "68:36: " + connection + "[8]/deadband/field[3]/@threshold: bad threshold '-1': expected a number of "
       "0 or more",
       file + "69:9: " + connection + "[8]/deadband/field[4]: missing attribute 'name' (the number whose change "
@@ -1126,7 +1147,8 @@ TEST(ProfileSchema, FixturesAgainstTheXsd) {
   for (const char* valid : {"valid_app.xml", "components/Joystick.xml", "components/Control.xml",
                             "components/Motor.xml", "components/OprosAliases.xml",
                             "mapping/valid_app.xml", "mapping/components/Sensor.xml",
-                            "mapping/components/Planner.xml", "watchdog/valid_app.xml"}) {
+                            "mapping/components/Planner.xml", "watchdog/valid_app.xml",
+                            "watchdog/poll_app.xml" /* its problems are beyond XML Schema */}) {
     EXPECT_TRUE(validates(dir / valid)) << valid;
   }
   // The schema is strict where the loader only warns, and checks what XML Schema can express.

@@ -2,6 +2,7 @@
 // passes by calling ConnectionTimer::check with a later instant, or by stamping samples.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <vector>
 
@@ -82,6 +83,46 @@ TEST(Deadband, AnyFieldThatMovedLetsTheSamplePass) {
   EXPECT_EQ(w.sink.got[1].n, 6);
   EXPECT_EQ(w.sink.got[2].f, 1.0F);
   EXPECT_EQ(w.counters().dropped_filtered.load(), 2U);
+}
+
+// NaN moves to and from a number; a NaN after a NaN does not.
+TEST(Deadband, NaNIsAChangeFromANumberAndBack) {
+  Wire w;
+  w.connection->set_deadbands({DeadbandField{offsetof(Sample, x), TypeKind::float64, 0.1, "x"}});
+  const double nan = std::nan("");
+  for (const double x : {nan, nan, 1.0, 1.05, nan, 2.0}) w.write(x);
+  ASSERT_EQ(w.sink.got.size(), 4U);  // nan, 1.0, nan, 2.0
+  EXPECT_TRUE(std::isnan(w.sink.got[0].x));
+  EXPECT_EQ(w.sink.got[1].x, 1.0);
+  EXPECT_TRUE(std::isnan(w.sink.got[2].x));
+  EXPECT_EQ(w.sink.got[3].x, 2.0);
+}
+
+TEST(Poll, TheNewestSampleSinceTheLastTickGoesAtEachTickAndNothingWhenNoneCame) {
+  Wire w;
+  constexpr Nanos kPeriod{50'000'000};  // below the timer's longest sleep, so check() returns the tick
+  w.connection->set_poll(kPeriod);
+  w.timer.add(*w.connection);
+  const MonoTime start = mono_now();
+  const MonoTime first_tick = w.timer.check(start);  // the ticks start here
+  EXPECT_EQ(first_tick, start + kPeriod);
+  w.write(1.0);
+  w.write(2.0);  // polling holds every sample: 1.0 is replaced
+  EXPECT_TRUE(w.sink.got.empty());
+  EXPECT_EQ(w.timer.check(first_tick + Nanos{-1}), first_tick);
+  EXPECT_TRUE(w.sink.got.empty());
+  EXPECT_EQ(w.timer.check(first_tick), first_tick + kPeriod);
+  ASSERT_EQ(w.sink.got.size(), 1U);
+  EXPECT_EQ(w.sink.got[0].x, 2.0);
+  w.timer.check(first_tick + kPeriod);  // nothing new: nothing goes
+  EXPECT_EQ(w.sink.got.size(), 1U);
+  w.write(3.0);
+  // A late wake skips the ticks it missed and hands over what came.
+  EXPECT_EQ(w.timer.check(first_tick + Nanos{3 * kPeriod.count + 5}), first_tick + Nanos{4 * kPeriod.count});
+  ASSERT_EQ(w.sink.got.size(), 2U);
+  EXPECT_EQ(w.sink.got[1].x, 3.0);
+  EXPECT_EQ(w.counters().dropped_rate_limited.load(), 1U);
+  EXPECT_EQ(w.counters().received.load(), w.counters().delivered.load() + w.counters().dropped());
 }
 
 TEST(RateLimit, SamplesBeforeTheirTurnAreHeldAndTheNewestGoesWhenItComes) {

@@ -143,8 +143,10 @@ TEST(Watchdog, SilentUpstreamReplacesEverySampleOnTheForwardingPath) {
   ASSERT_EQ(g.write(7), Status::ok);
   EXPECT_EQ(sink.last(), 7u);
   EXPECT_EQ(sink.safe(), 3);
+  // Replaced samples are drops (stale); the safe values are the watchdog's to count.
   EXPECT_EQ(g.connection->counters().received.load(), 4u);
-  EXPECT_EQ(g.connection->counters().delivered.load(), 4u);
+  EXPECT_EQ(g.connection->counters().delivered.load(), 1u);
+  EXPECT_EQ(g.connection->counters().dropped_stale.load(), 3u);
   EXPECT_EQ(g.safe_values(), 3u);
 
   wait_past_deadline(g.upstream);
@@ -276,6 +278,71 @@ TEST(Watchdog, EventPortHearsOfTripsAndRecoveries) {
   EXPECT_EQ(event.recoveries, 1u);
   EXPECT_EQ(std::string(event.silent_port), "");
   EXPECT_EQ(in.read(&event, sizeof event), Status::no_data);
+}
+
+// A sample held for the rate limit from before the trip never follows the safe value, and a
+// deadband lets the first sample after a safe value through, whatever it is.
+TEST(Watchdog, NeitherAHeldSampleNorTheDeadbandKeepsTheTargetFromTheSafeValue) {
+  Sink sink;
+  Guarded g(&sink);
+  g.connection->set_rate_limit(Nanos{2 * kDeadline.count});
+  g.connection->set_deadbands({DeadbandField{0, TypeKind::uint64, 100.0, "v"}});
+  ASSERT_EQ(g.write(5), Status::ok);  // passes
+  ASSERT_EQ(g.write(6), Status::ok);  // within the deadband: filtered
+  ASSERT_EQ(g.write(500), Status::ok);  // moved: held for the rate limit's turn
+  ASSERT_NE(g.connection->held_due(), MonoTime{});
+  const MonoTime silent = g.out.last_write() + kDeadline + Nanos{1};
+  g.monitor.check(silent);  // trips: the safe value, and the held sample is dropped
+  EXPECT_EQ(sink.last(), kSafe);
+  EXPECT_EQ(g.connection->held_due(), MonoTime{});
+  g.monitor.check(silent + Nanos{2 * kDeadline.count});
+  EXPECT_EQ(sink.last(), kSafe);
+  EXPECT_EQ(g.connection->counters().dropped_stale.load(), 1u);
+
+  // The source returns with a value inside the old deadband: the deadband lets it through
+  // (it now waits for the rate limit's turn, not filtered).
+  const std::uint64_t filtered = g.connection->counters().dropped_filtered.load();
+  ASSERT_EQ(g.write(7), Status::ok);
+  EXPECT_EQ(g.connection->counters().dropped_filtered.load(), filtered);
+  EXPECT_NE(g.connection->held_due(), MonoTime{});
+  const auto& k = g.connection->counters();
+  // Every sample accounted for: delivered, dropped, or the one held now.
+  EXPECT_EQ(k.received.load(), k.delivered.load() + k.dropped() + 1);
+}
+
+// A pulling reader keeps reading the safe value until a new sample comes, not the last one from
+// before the trip.
+TEST(Watchdog, ReaderKeepsTheSafeValueUntilANewSample) {
+  Guarded g;
+  std::uint64_t v = 0;
+  ASSERT_EQ(g.write(5), Status::ok);
+  ASSERT_EQ(g.read(v), Status::ok);
+  wait_past_deadline(g.out);
+  ASSERT_EQ(g.read(v), Status::ok);
+  EXPECT_EQ(v, kSafe);
+  ASSERT_EQ(g.upstream.write(&v, sizeof v), Status::not_connected);  // (no upstream here)
+  EXPECT_EQ(g.read(v), Status::old_data);
+  EXPECT_EQ(v, kSafe);
+}
+
+// A sink that writes into its own connection again gets a refusal, not a hang.
+TEST(Watchdog, ASinkThatWritesBackIntoItsConnectionIsRefused) {
+  struct Echo : SampleSink {
+    DataOutPort* out = nullptr;
+    int calls = 0;
+    Status on_sample(const std::byte* data, const SampleMeta& meta) noexcept override {
+      if (++calls == 1) out->write(data, meta.size);
+      return Status::ok;
+    }
+  } echo;
+  Guarded g(&echo, true);
+  echo.out = &g.out;
+  std::uint64_t up = 1;
+  g.upstream.write(&up, sizeof up);
+  ASSERT_EQ(g.write(1), Status::ok);
+  EXPECT_EQ(echo.calls, 1);
+  EXPECT_EQ(g.connection->counters().dropped_sink_error.load(), 1u);
+  EXPECT_EQ(g.connection->counters().delivered.load(), 1u);
 }
 
 // The thread itself: it wakes at the deadline, says so, and writes the safe value.

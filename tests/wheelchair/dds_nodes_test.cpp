@@ -392,7 +392,7 @@ TEST_F(WheelchairDdsNodes, MotorsStopWhenTheJoystickIsKilledAndDriveWhenItReturn
   ASSERT_TRUE(stats.contains("connections")) << stats.dump(2);
   bool found = false;
   for (const Json& link : stats["connections"]) {
-    if (link.value("source", "") == "watchdogs.Nodes.voltages") {
+    if (link.value("source", "") == "watchdogs.Control.voltages -> Nodes.voltages") {
       EXPECT_EQ(link.value("target", ""), "Alarms.events") << link.dump();
       EXPECT_EQ(link.value("delivered", 0), alarms.events().size()) << link.dump();
     }

@@ -140,6 +140,9 @@ struct ConnectionSpec {
   // <rate_limit per_second>: at most this many samples per second reach the target; a sample
   // that comes sooner waits for its turn and is replaced by a newer one (newest wins).
   std::optional<double> rate_limit_per_second;
+  // <poll period_ms>: the target gets, every period, the newest sample that came since the
+  // last tick (none when none came); at least twice the rate of an in-process periodic source.
+  std::optional<double> poll_period_ms;
   std::vector<DeadbandSpec> deadbands;  // the <field>s of <deadband> inside <port_connection>
   // Set by the loader when the two ends' types differ: the compiled mapping (the spec's, or
   // by name when there is none). Null when the types are the same.

@@ -91,6 +91,10 @@ class Connection {
   // At most one sample per `interval`, newest wins (allocates the held sample's slot).
   void set_rate_limit(Nanos interval);
   Nanos rate_interval() const noexcept { return interval_; }
+  // Polling (JOrocos): samples are not forwarded as they come; every `period` the newest one
+  // that came since the last tick is handed over (nothing when none came).
+  void set_poll(Nanos period);
+  bool polled() const noexcept { return poll_; }
   // Samples pass only when a field moved by more than its threshold (allocates the decode
   // scratch when the source has a wire format of its own).
   void set_deadbands(std::vector<DeadbandField> fields);
@@ -99,11 +103,14 @@ class Connection {
   // The timer thread's side (connection_timer.hpp). Each returns false, having done nothing,
   // when the writer has the connection at that moment: try again shortly.
   // Push mode: hands the safe value to the sink.
-  bool emit_safe_value(MonoTime now) noexcept;
-  // When the sample held for the rate limit may go; MonoTime{} when none is held.
+  enum class SafeValueResult : std::uint8_t { sent, busy, refused };
+  SafeValueResult emit_safe_value(MonoTime now) noexcept;
+  // When the sample held for the rate limit may go; MonoTime{} when none is held. (Polling:
+  // the timer thread keeps the ticks itself, in next_poll.)
   MonoTime held_due() const noexcept;
   // Hands the held sample over if its turn has come.
   bool release_held(MonoTime now) noexcept;
+  std::int64_t next_poll = 0;  // timer thread: the next tick of a polled connection
 
   const ConnectionCounters& counters() const noexcept { return counters_; }
   // t_out - t_in, polyport's own time: entry until stored for the reader (pull) or handed to
@@ -126,17 +133,20 @@ class Connection {
   QueuePolicy policy_;
   std::uint32_t depth_;
   void forward(const std::byte* data, const SampleMeta& meta) noexcept;
-  void hand_over(const std::byte* data, const SampleMeta& meta) noexcept;
-  void hand_over_claimed(const std::byte* data, const SampleMeta& meta) noexcept;
+  void hand_over(const std::byte* data, const SampleMeta& meta, bool count = true) noexcept;
+  void hand_over_claimed(const std::byte* data, const SampleMeta& meta, bool count = true) noexcept;
+  void safe_value_sent() noexcept;
   void hand_over_limited(const std::byte* data, const SampleMeta& meta) noexcept;
   bool passes_deadbands(const std::byte* flat) noexcept;
   Status to_sink(const std::byte* data, const SampleMeta& meta) noexcept;
   // The writer's and the timer thread's turns at the target, when both can reach it (a
   // watchdog on a push-mode target, a rate limit): the writer waits only while the timer
   // thread hands over a safe value or a held sample; the timer thread never waits.
-  void enter() noexcept;
-  bool try_enter() noexcept { return !busy_.exchange(true, std::memory_order_acquire); }
-  void leave() noexcept { busy_.store(false, std::memory_order_release); }
+  // enter() returns false when this thread holds the flag already (the target's sink wrote
+  // into this connection again): the caller drops the sample instead of waiting for itself.
+  bool enter() noexcept;
+  bool try_enter() noexcept;
+  void leave() noexcept;
   void hand_over_safe(const SampleMeta& meta) noexcept;
   PopResult take_safe(std::byte* dst, std::uint32_t capacity, SampleMeta& meta, MonoTime now) noexcept;
 
@@ -154,8 +164,11 @@ class Connection {
   bool reader_has_safe_ = false;  // reader thread: the safe value was taken since the last sample
   bool guarded_ = false;          // enter()/leave() around every hand-over
   std::atomic<bool> busy_{false};
+  std::atomic<const void*> holder_{nullptr};  // the thread that holds busy_ (re-entry check)
+  std::atomic<int> waiters_{0};               // writers asleep on busy_
   // Rate limit: the last hand-over and the sample held for its turn.
   Nanos interval_{0};
+  bool poll_ = false;
   std::atomic<std::int64_t> last_sent_{INT64_MIN / 2};
   std::unique_ptr<std::byte[]> held_;
   std::uint32_t held_capacity_ = 0;
@@ -165,7 +178,7 @@ class Connection {
   std::vector<DeadbandField> deadbands_;
   std::vector<double> deadband_last_;
   std::vector<double> deadband_now_;
-  bool deadband_primed_ = false;
+  std::atomic<bool> deadband_primed_{false};  // cleared when a safe value goes out
   ConnectionCounters counters_;
   LatencyHistogram latency_;
   LatencyHistogram age_;

@@ -46,17 +46,18 @@ struct WatchdogCounters {
   std::atomic<std::uint64_t> recoveries{0};   // tripped -> ok
   std::atomic<std::uint64_t> safe_values{0};  // safe values handed to the target
   std::atomic<std::uint64_t> stale{0};        // samples older than max_age, replaced
+  std::atomic<std::uint64_t> safe_value_errors{0};  // safe values the target refused (tried again)
 };
 
 // polyport::WatchdogEvent's flat layout (config/types/watchdog_event.idl); the engine checks
 // the registered type against it before it connects an event port.
 struct WatchdogEventSample {
-  std::int32_t kind = 0;  // 0 WATCHDOG_TRIPPED, 1 WATCHDOG_RECOVERED
-  std::uint64_t trips = 0;
-  std::uint64_t recoveries = 0;
-  std::int64_t silent_ns = 0;
-  char connection[128] = {};
-  char silent_port[128] = {};
+  std::int32_t kind;  // 0 WATCHDOG_TRIPPED, 1 WATCHDOG_RECOVERED
+  std::uint64_t trips;
+  std::uint64_t recoveries;
+  std::int64_t silent_ns;
+  char connection[128];
+  char silent_port[128];
 };
 
 class ConnectionWatchdog {
@@ -67,7 +68,7 @@ class ConnectionWatchdog {
 
   // Whether every watched port wrote within the deadline before `now`.
   bool fresh(MonoTime now) const noexcept {
-    return now - last_write(source_) <= deadline_ && (upstream_ == nullptr || now - last_write(*upstream_) <= deadline_);
+    return fresh_port(source_, now) && (upstream_ == nullptr || fresh_port(*upstream_, now));
   }
   // Whether a sample's source stamp is older than max_age at `now` (false without either).
   bool too_old(const SampleMeta& meta, MonoTime now) const noexcept {
@@ -95,6 +96,11 @@ class ConnectionWatchdog {
  private:
   friend class ConnectionTimer;
   static MonoTime last_write(const DataOutPort& port) noexcept;
+  // A port that never wrote (last write 0) is never fresh, however young the clock is.
+  bool fresh_port(const DataOutPort& port, MonoTime now) const noexcept {
+    const MonoTime last = last_write(port);
+    return last.ns != 0 && now - last <= deadline_;
+  }
 
   const DataOutPort& source_;
   const DataOutPort* upstream_;
@@ -104,7 +110,7 @@ class ConnectionWatchdog {
   std::atomic<WatchdogState> state_{WatchdogState::waiting};
   bool safe_written_ = false;  // timer thread: the safe value went out since the last ok
   DataOutPort* events_ = nullptr;
-  WatchdogEventSample event_;  // timer thread: the next event, its connection name filled in
+  WatchdogEventSample event_{};  // timer thread: the next event, its connection name filled in
   WatchdogCounters counters_;
 };
 

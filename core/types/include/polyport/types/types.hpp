@@ -91,6 +91,9 @@ struct Type {
   bool is_primitive() const noexcept;
 };
 
+// Integers (octet included) and floating-point kinds: what can be read as a number.
+bool is_number(TypeKind kind) noexcept;
+
 // The flat representations named in the layout rules above.
 struct FlatSpan {
   std::uint32_t offset;
