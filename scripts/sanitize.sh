@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# Builds polyport with sanitizers and runs tests under them; any sanitizer report, in a test
+# or in a process a test starts (polyportd, the peers), fails the run.
+#   ./scripts/sanitize.sh [address|thread] [CTEST ARGS...]
+#   address  ASan + UBSan (-DPOLYPORT_SANITIZE=address) into ./build-asan; labels unit and
+#            integration
+#   thread   TSan (-DPOLYPORT_SANITIZE=thread) into ./build-tsan; label concurrency (ports,
+#            drain gate, services, execution contexts, sample buffers, the DDS service
+#            bridges), three passes (a race shows only in the interleavings a run happens on)
+# Reports are written to <build>/sanitizer-reports/ and printed at the end. The SDKs' own
+# known reports are suppressed by tests/sanitizers/*.supp (never polyport's code).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+mode="${1:-address}"
+shift || true
+jobs="${POLYPORT_JOBS:-2}"
+supp="$PWD/tests/sanitizers"
+case "$mode" in
+  address)
+    build=build-asan
+    labels='^(unit|integration)$'
+    targets=(all)
+    passes=()
+    ;;
+  thread)
+    build=build-tsan
+    labels='^concurrency$'
+    targets=(polyport_concurrency_tests polyport_dds_bridge_tests polyport_test_components)
+    passes=(--repeat until-fail:3)
+    ;;
+  *)
+    echo "usage: $0 [address|thread] [ctest arguments...]" >&2
+    exit 2
+    ;;
+esac
+
+start=$(date +%s)
+cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPOLYPORT_SANITIZE="$mode" >/dev/null
+cmake --build "$build" -j "$jobs" --target "${targets[@]}"
+built=$(date +%s)
+
+reports="$PWD/$build/sanitizer-reports"
+rm -rf "$reports"
+mkdir -p "$reports"
+if [ "$mode" = address ]; then
+  export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:check_initialization_order=1:strict_init_order=1:log_path=$reports/asan:suppressions=$supp/asan.supp"
+  export LSAN_OPTIONS="suppressions=$supp/lsan.supp:print_suppressions=0"
+  export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:log_path=$reports/ubsan"
+else
+  export TSAN_OPTIONS="second_deadlock_stack=1:log_path=$reports/tsan:suppressions=$supp/tsan.supp"
+fi
+
+status=0
+ctest --test-dir "$build" --output-on-failure -j "$jobs" --timeout 300 -L "$labels" ${passes[@]+"${passes[@]}"} "$@" || status=$?
+finished=$(date +%s)
+
+shopt -s nullglob
+found=("$reports"/*)
+for r in "${found[@]}"; do
+  echo "==== sanitizer report $(basename "$r")"
+  cat "$r"
+done
+echo "sanitize $mode: build $((built - start)) s, tests $((finished - built)) s"
+if [ ${#found[@]} -gt 0 ]; then
+  echo "sanitize $mode: ${#found[@]} report(s) in $reports"
+  exit 1
+fi
+if [ "$status" -ne 0 ]; then
+  echo "sanitize $mode: tests failed"
+  exit "$status"
+fi
+echo "sanitize $mode: no sanitizer report, tests passed"
