@@ -18,15 +18,12 @@ supp="$PWD/tests/sanitizers"
 case "$mode" in
   address)
     build=build-asan
-    labels='^(unit|integration)$'
     targets=(all)
-    passes=()
     ;;
   thread)
     build=build-tsan
     labels='^concurrency$'
     targets=(polyport_concurrency_tests polyport_dds_bridge_tests polyport_test_components)
-    passes=(--repeat until-fail:3)
     ;;
   *)
     echo "usage: $0 [address|thread] [ctest arguments...]" >&2
@@ -45,13 +42,26 @@ mkdir -p "$reports"
 if [ "$mode" = address ]; then
   export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:check_initialization_order=1:strict_init_order=1:log_path=$reports/asan:suppressions=$supp/asan.supp"
   export LSAN_OPTIONS="suppressions=$supp/lsan.supp:print_suppressions=0"
-  export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:log_path=$reports/ubsan"
+  export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:log_path=$reports/ubsan:suppressions=$supp/ubsan.supp"
 else
   export TSAN_OPTIONS="second_deadlock_stack=1:log_path=$reports/tsan:suppressions=$supp/tsan.supp"
 fi
 
 status=0
-ctest --test-dir "$build" --output-on-failure -j "$jobs" --timeout 300 -L "$labels" ${passes[@]+"${passes[@]}"} "$@" || status=$?
+run_ctest() {
+  ctest --test-dir "$build" --output-on-failure -j "$jobs" --timeout 300 "$@" || status=$?
+}
+if [ "$mode" = address ]; then
+  run_ctest -L '^unit$' "$@"
+  # libfastrtps 2.9.1 deletes objects of its own through the wrong type (ASan:
+  # new-delete-type-mismatch in RTPSReader::~RTPSReader and RTPSWriter::~RTPSWriter, for the
+  # statistics endpoints it creates with every participant), in polyportd and in every test
+  # that opens a Fast DDS participant. ASan cannot suppress that check per library, so it is
+  # off for the integration label only; the unit label, without Fast DDS, keeps it.
+  ASAN_OPTIONS="$ASAN_OPTIONS:new_delete_type_mismatch=0" run_ctest -L '^integration$' "$@"
+else
+  run_ctest -L "$labels" --repeat until-fail:3 "$@"
+fi
 finished=$(date +%s)
 
 shopt -s nullglob
