@@ -32,7 +32,11 @@ case "$mode" in
 esac
 
 start=$(date +%s)
-cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPOLYPORT_SANITIZE="$mode" >/dev/null
+# -O1 and line tables only (-g1): what the sanitizers' stack traces need, at half the compile
+# time of -O2 -g.
+flags="-O1 -g1 -DNDEBUG"
+cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPOLYPORT_SANITIZE="$mode" \
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$flags" -DCMAKE_C_FLAGS_RELWITHDEBINFO="$flags" >/dev/null
 cmake --build "$build" -j "$jobs" --target "${targets[@]}"
 built=$(date +%s)
 
