@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
 # Builds polyport with sanitizers and runs tests under them; any sanitizer report, in a test
-# or in a process a test starts (polyportd, the peers), fails the run.
+# or in a process a test starts (polyportd, the peers), fails the run (UBSan's abort the
+# process that has them).
 #   ./scripts/sanitize.sh [address|thread] [CTEST ARGS...]
 #   address  ASan + UBSan (-DPOLYPORT_SANITIZE=address) into ./build-asan; labels unit and
 #            integration
 #   thread   TSan (-DPOLYPORT_SANITIZE=thread) into ./build-tsan; label concurrency (ports,
 #            drain gate, services, execution contexts, sample buffers, the DDS service
 #            bridges), three passes (a race shows only in the interleavings a run happens on)
-# Reports are written to <build>/sanitizer-reports/ and printed at the end. The SDKs' own
-# known reports are suppressed by tests/sanitizers/*.supp (never polyport's code).
+# ASan, LSan and TSan reports are written to <build>/sanitizer-reports/ and printed at the end
+# (UBSan's go to the process's stderr). The SDKs' own known reports are suppressed by
+# tests/sanitizers/*.supp (never polyport's code).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mode="${1:-address}"
