@@ -5,7 +5,8 @@
 //
 // Exit codes (also in --help):
 //   0  done
-//   1  the daemon refused the command (unknown component, a lifecycle transition not allowed)
+//   1  the daemon refused the command (unknown component, property or port, a bad value, a
+//      lifecycle transition or a connection not allowed)
 //   2  bad command line (or several daemon sockets and no --socket)
 //   3  no daemon: no socket, nobody listening, access denied, no reply
 #include <errno.h>
@@ -41,7 +42,8 @@ constexpr int kExitNoDaemon = 3;
 constexpr const char* kExitCodesHelp =
     "Exit codes:\n"
     "  0  done\n"
-    "  1  the daemon refused the command (unknown component, transition not allowed)\n"
+    "  1  the daemon refused the command (unknown component, property or port, a bad value,\n"
+    "     a transition or connection not allowed)\n"
     "  2  bad command line, or several daemon sockets and no --socket\n"
     "  3  no daemon: no socket, nobody listening, access denied, or no reply\n";
 
@@ -148,14 +150,31 @@ void print_list(const json& g, std::ostream& out) {
   }
   table(out, rows);
   out << "\n";
-  rows = {{"CONNECTION", "KIND", "POLICY", "MODE", "CONVERSION"}};
+  rows = {{"CONNECTION", "KIND", "POLICY", "MODE", "CONVERSION", "ORIGIN"}};
   for (const auto& c : g.value("connections", json::array())) {
     std::string policy = text(c, "policy");
     if (c.contains("depth")) policy += "/" + text(c, "depth");
     rows.push_back({text(c, "source") + " -> " + text(c, "target"), text(c, "kind"), policy, text(c, "mode"),
-                    text(c, "conversion")});
+                    text(c, "conversion"), text(c, "origin")});
   }
   table(out, rows);
+}
+
+void print_properties(const json& r, bool one, std::ostream& out) {
+  const json properties = r.value("properties", json::array());
+  if (one && properties.size() == 1) {
+    out << text(properties[0], "value") << "\n";
+    return;
+  }
+  std::vector<std::vector<std::string>> rows{{"PROPERTY", "TYPE", "VALUE", "PROFILE"}};
+  for (const auto& p : properties) {
+    rows.push_back({text(p, "name"), text(p, "type"), text(p, "value"), text(p, "profile_value")});
+  }
+  table(out, rows);
+  if (!r.value("settable", false)) {
+    out << "(" << text(r, "component") << " is a " << text(r, "model")
+        << " component whose properties cannot be set while it runs)\n";
+  }
 }
 
 void print_stats(const json& s, std::ostream& out) {
@@ -170,7 +189,8 @@ void print_stats(const json& s, std::ostream& out) {
   rows = {{"CONNECTION", "RECEIVED", "DELIVERED", "DROPPED", "P50_NS", "P99_NS", "MAX_NS"}};
   for (const auto& c : s.value("connections", json::array())) {
     const json h = c.value("latency_ns", json::object());
-    rows.push_back({text(c, "name"), text(c, "received"), text(c, "delivered"), text(c, "dropped"), text(h, "p50"),
+    rows.push_back({text(c, "name") + (c.value("removed", false) ? " (removed)" : ""), text(c, "received"),
+                    text(c, "delivered"), text(c, "dropped"), text(h, "p50"),
                     text(h, "p99"), text(h, "max")});
   }
   table(out, rows);
@@ -193,7 +213,8 @@ int main(int argc, char** argv) {
   std::string socket_path;
   bool as_json = false;
   double timeout_s = 10.0;
-  std::string component;
+  polyport::admin::Request request;
+  request.id = 1;
   app.add_option("--socket", socket_path,
                  "the daemon's admin socket (default: the only polyportd-*.sock in $XDG_RUNTIME_DIR/polyport, "
                  "or /run/polyport without XDG_RUNTIME_DIR)");
@@ -209,9 +230,37 @@ int main(int argc, char** argv) {
                                      std::tuple{"deactivate", Command::deactivate, "deactivate COMPONENT"},
                                      std::tuple{"reset", Command::reset, "reset COMPONENT (from its error state)"}}) {
     CLI::App* sub = app.add_subcommand(name, help);
-    sub->add_option("component", component, "component name")->required();
+    sub->add_option("component", request.component, "component name")->required();
     commands.emplace_back(sub, command);
   }
+  CLI::App* get = app.add_subcommand("get", "a component's properties (or one of them): type, value now, profile value");
+  get->add_option("component", request.component, "component name")->required();
+  get->add_option("property", request.property, "property name (default: all)");
+  commands.emplace_back(get, Command::get);
+  CLI::App* set = app.add_subcommand("set", "change a component's property while it runs (checked against its type)");
+  set->add_option("component", request.component, "component name")->required();
+  set->add_option("property", request.property, "property name")->required();
+  set->add_option("value", request.value, "the new value")->required();
+  commands.emplace_back(set, Command::set);
+  const CLI::Validator port_path(
+      [](std::string& path) {
+        const auto dot = path.find('.');
+        return dot == std::string::npos || dot == 0 || dot + 1 == path.size()
+                   ? "'" + path + "' is not a port: COMPONENT.PORT expected"
+                   : std::string();
+      },
+      "COMPONENT.PORT");
+  CLI::App* connect = app.add_subcommand("connect", "connect two data or event ports while the application runs");
+  connect->add_option("source", request.source, "output port, COMPONENT.PORT")->required()->check(port_path);
+  connect->add_option("target", request.target, "input port, COMPONENT.PORT")->required()->check(port_path);
+  connect->add_option("--policy", request.policy, "data, buffer or circular (default: the input port's)");
+  std::int64_t depth = 0;
+  CLI::Option* depth_option = connect->add_option("--depth", depth, "queue depth of a buffer or circular policy");
+  commands.emplace_back(connect, Command::connect);
+  CLI::App* disconnect = app.add_subcommand("disconnect", "remove a data or event connection while the application runs");
+  disconnect->add_option("source", request.source, "output port, COMPONENT.PORT")->required()->check(port_path);
+  disconnect->add_option("target", request.target, "input port, COMPONENT.PORT")->required()->check(port_path);
+  commands.emplace_back(disconnect, Command::disconnect);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -222,10 +271,12 @@ int main(int argc, char** argv) {
   for (const auto& [sub, c] : commands) {
     if (sub->parsed()) command = c;
   }
+  request.command = command;
+  if (depth_option->count() > 0) request.depth = depth;
   try {
     if (socket_path.empty()) socket_path = find_socket();
     const auto limit = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
-    const json reply = call(socket_path, polyport::admin::request_line(1, command, component), limit);
+    const json reply = call(socket_path, polyport::admin::request_line(request), limit);
     if (!reply.value("ok", false)) {
       const std::string code = reply.value("code", "");
       std::cerr << "polyportctl: " << reply.value("error", "the daemon refused the request") << "\n";
@@ -249,6 +300,23 @@ int main(int argc, char** argv) {
         break;
       case Command::stats:
         print_stats(result, std::cout);
+        break;
+      case Command::get:
+        print_properties(result, !request.property.empty(), std::cout);
+        break;
+      case Command::set:
+        std::cout << text(result, "component") << "." << text(result, "property") << " = " << text(result, "value")
+                  << " (was " << text(result, "previous") << ")\n";
+        break;
+      case Command::connect: {
+        std::string policy = text(result, "policy");
+        if (result.contains("depth")) policy += "/" + text(result, "depth");
+        std::cout << "connected " << text(result, "source") << " -> " << text(result, "target") << " (" << policy
+                  << ", " << text(result, "conversion") << ")\n";
+        break;
+      }
+      case Command::disconnect:
+        std::cout << "disconnected " << text(result, "source") << " -> " << text(result, "target") << "\n";
         break;
       default:
         std::cout << text(result, "component") << ": " << text(result, "state") << "\n";

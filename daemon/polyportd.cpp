@@ -23,6 +23,7 @@
 
 #include "admin_protocol.hpp"
 #include "admin_server.hpp"
+#include "control_requests.hpp"
 #include "models.hpp"
 #include "polyport/runtime/component_api.hpp"
 #include "polyport/runtime/engine.hpp"
@@ -77,7 +78,10 @@ std::vector<std::filesystem::path> library_path(const Options& options) {
 }
 
 // Loads every profile and builds the engine; prints every problem. False on any error.
-bool load(const Options& options, const ModelRegistry& models, Engine& engine, TypeRegistry& types) {
+// `application`, when given, receives every profile's components and connections (what the
+// admin socket checks run-time changes against).
+bool load(const Options& options, const ModelRegistry& models, Engine& engine, TypeRegistry& types,
+          ApplicationProfile* application = nullptr) {
   Diagnostics diagnostics;
   LoadOptions load_options{library_path(options)};
   load_options.models = &models;
@@ -89,6 +93,14 @@ bool load(const Options& options, const ModelRegistry& models, Engine& engine, T
       continue;
     }
     ok = engine.build(*profile, diagnostics) && ok;
+    if (application != nullptr) {
+      if (application->name.empty()) {
+        application->name = profile->name;
+        application->file = profile->file;
+      }
+      for (Subcomponent& c : profile->components) application->components.push_back(std::move(c));
+      for (ConnectionSpec& c : profile->connections) application->connections.push_back(std::move(c));
+    }
   }
   diagnostics.print(std::cerr);
   if (!ok || diagnostics.has_errors()) {
@@ -172,6 +184,18 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
     if (c.contains("mode")) out << "  mode=" << c["mode"].get<std::string>();
     if (c.contains("conversion")) out << "  conversion=" << c["conversion"].get<std::string>();
     if (c.contains("max_in_flight")) out << "  max_in_flight=" << c["max_in_flight"];
+    if (c.contains("watchdog")) {
+      const auto& w = c["watchdog"];
+      out << "  watchdog=" << w.value("deadline_ns", 0) / 1e6 << " ms";
+      if (w.contains("max_age_ns")) out << " max_age=" << w.value("max_age_ns", 0) / 1e6 << " ms";
+      if (w.contains("upstream")) out << " upstream=" << w["upstream"].get<std::string>();
+    }
+    if (c.contains("rate_limit_interval_ns")) {
+      out << "  rate_limit=" << 1e9 / c["rate_limit_interval_ns"].get<double>() << "/s";
+    }
+    for (const auto& band : c.value("deadbands", nlohmann::json::array())) {
+      out << "  deadband=" << band.value("field", "") << ":" << band.value("threshold", 0.0);
+    }
     out << "\n";
   }
   out << "execution contexts:\n";
@@ -260,6 +284,11 @@ void print_final_stats(const nlohmann::json& stats) {
   for (const auto& c : stats["connections"]) {
     spdlog::info("  {}: received {}, delivered {}, dropped {}; latency {}", c.value("name", ""), c.value("received", 0),
                  c.value("delivered", 0), c.value("dropped", 0), histogram_text(c["latency_ns"]));
+    if (c.contains("watchdog")) {
+      const auto& w = c["watchdog"];
+      spdlog::info("    watchdog: {}, {} trips, {} recoveries, {} safe values, {} stale", w.value("state", ""),
+                   w.value("trips", 0), w.value("recoveries", 0), w.value("safe_values", 0), w.value("stale", 0));
+    }
   }
   for (const auto& s : stats["services"]) {
     spdlog::info("  {}: calls {}, ok {}, timeouts {}, errors {}", s.value("name", ""), s.value("calls", 0),
@@ -282,8 +311,8 @@ nlohmann::json collect_stats(const Engine& engine, const Options& options, std::
 }
 
 // Answers an admin request; runs on the engine's control thread (this main thread).
-std::string answer(const admin::Request& request, Engine& engine, const Options& options,
-                   std::chrono::steady_clock::time_point t_start) {
+std::string answer(const admin::Request& request, Engine& engine, daemon::ControlRequests& control,
+                   const Options& options, std::chrono::steady_clock::time_point t_start) {
   using admin::Command;
   switch (request.command) {
     case Command::hello: {
@@ -303,8 +332,17 @@ std::string answer(const admin::Request& request, Engine& engine, const Options&
       for (auto& c : graph["components"]) {
         if (const Interceptor* i = engine.find_interceptor(c.value("name", ""))) c["state"] = i->status().state;
       }
+      control.annotate(graph);
       return admin::ok_reply(request.id, graph);
     }
+    case Command::get:
+      return control.get(request);
+    case Command::set:
+      return control.set(request);
+    case Command::connect:
+      return control.connect(request);
+    case Command::disconnect:
+      return control.disconnect(request);
     case Command::stats:
       return admin::ok_reply(request.id, collect_stats(engine, options, t_start));
     case Command::activate:
@@ -349,10 +387,12 @@ int run_daemon(const Options& options) {
   ModelRegistry models;
   daemon::register_models(models);
   Engine engine(models, types);
-  if (!load(options, models, engine, types)) {
+  ApplicationProfile application;
+  if (!load(options, models, engine, types, &application)) {
     spdlog::error("not running: the profile has problems");
     return kExitProfile;
   }
+  daemon::ControlRequests control(engine, types, std::move(application));
 
   daemon::Tracer tracer;
   if (!options.trace_ports.empty()) {
@@ -394,6 +434,13 @@ int run_daemon(const Options& options) {
   }
 
   std::vector<std::string> warnings;
+  engine.set_notifier([](const std::string& message, bool problem) {
+    if (problem) {
+      spdlog::warn("{}", message);
+    } else {
+      spdlog::info("{}", message);
+    }
+  });
   Result<void> started = engine.start(warnings);
   for (const std::string& warning : warnings) spdlog::warn("{}", warning);
   if (!started) {
@@ -429,7 +476,7 @@ int run_daemon(const Options& options) {
       }
     }
     if (admin.request_fd() >= 0 && (fds[1].revents & POLLIN)) {
-      admin.serve([&](const admin::Request& request) { return answer(request, engine, options, t_start); });
+      admin.serve([&](const admin::Request& request) { return answer(request, engine, control, options, t_start); });
     }
     if (tracer.active()) tracer.drain();
     const auto now = Clock::now();

@@ -10,7 +10,8 @@ stamp="$(date -u +%Y%m%dT%H%M%SZ)"
 export POLYPORT_GIT_REVISION="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
 for bench in inproc_connection conversion; do
   out="benchmarks/results/${bench}-${stamp}.json"
-  ./build/bin/bench_${bench} --benchmark_out="$out" --benchmark_out_format=json --benchmark_min_time=0.05 "$@"
+  ./build/bin/bench_${bench} --benchmark_out="$out" --benchmark_out_format=json --benchmark_min_time=0.05 \
+    --benchmark_enable_random_interleaving=true "$@"
   echo "results: $out"
 done
 # DDS ping-pong: direct vs via polyportd, both vendors, 16 B and 1 KiB (needs both SDKs).

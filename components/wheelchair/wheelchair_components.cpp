@@ -79,6 +79,18 @@ class JoystickComp final : public ComponentBase {
     return ReturnCode::ok;
   }
 
+  // max_speed may change while the chair runs (polyportctl set Joystick max_speed 0.8); on
+  // this component's thread, between two cycles.
+  ReturnCode onPropertyChanged(std::string_view name, std::string_view) override {
+    if (name != "max_speed") return ReturnCode::unsupported;
+    double speed = max_speed_mps_;
+    if (!read_property(*this, "max_speed", speed) || !std::isfinite(speed) || speed <= 0.0) {
+      return ReturnCode::bad_parameter;
+    }
+    max_speed_mps_ = speed;
+    return ReturnCode::ok;
+  }
+
  private:
   InPort<JoystickPosition> position_in_{*this, "position"};
   OutPort<Reference> reference_out_{*this, "reference"};

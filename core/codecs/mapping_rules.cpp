@@ -127,55 +127,76 @@ bool is_inside(const std::string& outer, const std::string& inner) {
 
 }  // namespace
 
-// -- rules ------------------------------------------------------------------------------
+}  // namespace polyport::mapping
 
-// Resolves a path through structs and fixed arrays; reports and returns nothing if it
-// does not lead to a field.
-std::optional<Place> Compiler::resolve(const MappingRule& rule, const Type& root, const std::string& text,
-                                       std::string_view side, std::string* canonical) {
+namespace polyport {
+
+FieldPathResult find_field_path(const Type& root, std::string_view text) {
+  using namespace mapping;
+  FieldPathResult result;
   const auto parts = parse_path(text);
   if (!parts) {
-    problem(&rule, "bad " + std::string(side) + " path " + in_quotes(text) +
-                       " (expected names and [index], e.g. a.b[1].c)");
-    return std::nullopt;
+    result.bad_syntax = true;
+    return result;
   }
-  Place place{&root.resolved(), 0, ""};
+  FieldPlace place{&root.resolved(), 0, ""};
   for (const PathPart& part : *parts) {
     const Type& type = *place.type;
     const std::string at = place.path;
-    const auto not_found = [&](const std::string& why) {
-      problem(&rule, std::string(side) + " " + in_quotes(text) + " not found in " + in_quotes(root.name) + " (" +
-                         why + ")");
-    };
     if (!part.name.empty()) {
       place.path = join_path(at, part.name);
       if (type.kind != TypeKind::structure) {
-        not_found(in_quotes(at) + " is " + in_quotes(type.name) + ", which has no fields");
-        return std::nullopt;
+        result.why = in_quotes(at) + " is " + in_quotes(type.name) + ", which has no fields";
+        return result;
       }
       const Field* field = type.find_field(part.name);
       if (field == nullptr) {
-        not_found((at.empty() ? std::string("fields: ") : "fields of " + in_quotes(at) + ": ") + field_list(type));
-        return std::nullopt;
+        result.why = (at.empty() ? std::string("fields: ") : "fields of " + in_quotes(at) + ": ") + field_list(type);
+        return result;
       }
       place.type = &field->type->resolved();
       place.offset += field->offset;
     } else {
       place.path = index_path(at, part.index);
       if (type.kind != TypeKind::array) {
-        not_found(in_quotes(at) + " is " + in_quotes(type.name) + "; an index needs a fixed array");
-        return std::nullopt;
+        result.why = in_quotes(at) + " is " + in_quotes(type.name) + "; an index needs a fixed array";
+        return result;
       }
       if (part.index >= type.bound) {
-        not_found(in_quotes(at) + " is " + in_quotes(type.name));
-        return std::nullopt;
+        result.why = in_quotes(at) + " is " + in_quotes(type.name);
+        return result;
       }
       place.type = &type.element->resolved();
       place.offset += part.index * type.element->size;
     }
   }
-  if (canonical != nullptr) *canonical = place.path;
-  return place;
+  result.place = std::move(place);
+  return result;
+}
+
+}  // namespace polyport
+
+namespace polyport::mapping {
+
+// -- rules ------------------------------------------------------------------------------
+
+// Resolves a path through structs and fixed arrays; reports and returns nothing if it
+// does not lead to a field.
+std::optional<Place> Compiler::resolve(const MappingRule& rule, const Type& root, const std::string& text,
+                                       std::string_view side, std::string* canonical) {
+  const FieldPathResult found = find_field_path(root, text);
+  if (!found.place) {
+    if (found.bad_syntax) {
+      problem(&rule, "bad " + std::string(side) + " path " + in_quotes(text) +
+                         " (expected names and [index], e.g. a.b[1].c)");
+    } else {
+      problem(&rule, std::string(side) + " " + in_quotes(text) + " not found in " + in_quotes(root.name) + " (" +
+                         found.why + ")");
+    }
+    return std::nullopt;
+  }
+  if (canonical != nullptr) *canonical = found.place->path;
+  return Place{found.place->type, found.place->offset, found.place->path};
 }
 
 void Compiler::prepare_rules() {

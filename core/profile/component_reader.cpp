@@ -2,6 +2,7 @@
 // problem at its place; the model's own elements go to model_elements.cpp.
 
 #include "loader.hpp"
+#include "polyport/profile/runtime_checks.hpp"
 
 #include <cstdio>
 
@@ -227,25 +228,8 @@ void Loader::read_properties(const Reporter& report, pugi::xml_node element, Com
 // declared type would fail there, far from the profile, so it is checked here.
 void Loader::check_property_value(const Reporter& report, pugi::xml_node node,
                                  const PropertySpec& property) {
-  const std::string& type = property.type;
-  bool ok = true;
-  if (type == "int" || type == "long" || type == "short") {
-    ok = parse_integer<std::int64_t>(property.value).has_value();
-  } else if (type == "double" || type == "float") {
-    // The XSD leaves property text free, so the usual C spellings (1e-3) are fine here.
-    double value = 0.0;
-    const char* first = property.value.data();
-    const char* last = first + property.value.size();
-    if (first != last && *first == '+') ++first;
-    const auto [end, ec] = std::from_chars(first, last, value);
-    ok = first != last && ec == std::errc{} && end == last && std::isfinite(value);
-  } else if (type == "bool" || type == "boolean") {
-    ok = lookup(kBooleans, property.value).has_value();
-  }
-  if (!ok) {
-    report.error_text(node, "bad value " + in_quotes(property.value) + " for property " +
-                                in_quotes(property.name) + " of type " + in_quotes(type));
-  }
+  std::string problem = property_value_problem(property, property.value);
+  if (!problem.empty()) report.error_text(node, std::move(problem));
 }
 
 void Loader::read_ports(const Reporter& report, pugi::xml_node element, LoadedComponent& component) {

@@ -97,6 +97,8 @@ void Loader::check_connections(const Reporter& report, ApplicationProfile& app,
     const bool target_ok = check_end(report, node, target_node, spec, spec.target, target, false);
     const std::string source_name = spec.source.component + "." + spec.source.port;
     const std::string target_name = spec.target.component + "." + spec.target.port;
+    check_watchdog(report, app, node, spec, target_ok ? target.port : nullptr);
+    check_rate_policies(report, node, spec, source_ok ? source.port : nullptr);
 
     if (spec.kind == PortKind::service) {
       for (const std::string_view attribute : {"policy", "depth"}) {

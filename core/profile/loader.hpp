@@ -147,6 +147,17 @@ const std::vector<ChildRule> kConnectionRules = {
     {"source", {"source"}, false, {"component_name", "port_name"}},
     {"target", {"target"}, false, {"component_name", "port_name"}},
     {"mapping", {"mapping"}, false, {"by_name"}},
+    {"watchdog", {"watchdog"}, false, {"deadline_ms", "max_age_ms"}},
+    {"rate_limit", {"rate_limit"}, false, {"per_second"}},
+    {"deadband", {"deadband"}, false, {}},
+};
+const std::vector<ChildRule> kDeadbandRules = {
+    {"field", {"field"}, true, {"name", "threshold"}},
+};
+const std::vector<ChildRule> kWatchdogRules = {
+    {"upstream", {"upstream"}, false, {"component_name", "port_name"}},
+    {"event", {"event"}, false, {"component_name", "port_name"}},
+    {"safe_value", {"safe_value"}, false, {}},
 };
 const std::vector<ChildRule> kMappingRules = {
     {"field",
@@ -287,6 +298,9 @@ class Loader {
       : types_(types), options_(options), diagnostics_(diagnostics), rules_(options.models) {}
 
   std::optional<ApplicationProfile> run(const fs::path& requested);
+  // One <port_connection> (the root of `xml`), checked against the components of
+  // `application` as run() checks a profile's connections (runtime_checks.cpp).
+  std::optional<ConnectionSpec> check_one(const ApplicationProfile& application, XmlFile& xml);
 
  private:
   // -- shared ----------------------------------------------------------------------------
@@ -326,6 +340,24 @@ class Loader {
   // problems a rule causes at that rule's <field>.
   void compile_mapping(const Reporter& report, pugi::xml_node node, ConnectionSpec& spec,
                        const std::string& source_type, const std::string& target_type, bool readable);
+
+  // -- connection policies (policy_reader.cpp) --------------------------------------------
+
+  // Reads a <watchdog>: its times, its upstream end and its safe value's rules.
+  std::optional<WatchdogSpec> read_watchdog(const Reporter& report, pugi::xml_node element);
+
+  // Reads <rate_limit> and every <deadband> of a connection.
+  void read_rate_policies(const Reporter& report, const Children& children, ConnectionSpec& spec);
+
+  // Checks a connection's rate limit and deadbands: a data connection, deadband fields that
+  // are numbers of the source's type.
+  void check_rate_policies(const Reporter& report, pugi::xml_node node, ConnectionSpec& spec,
+                           const PortSpec* source);
+
+  // Checks a connection's watchdog against the graph: a data connection, an upstream output
+  // data port, a safe value of constants that compiles for the target's type.
+  void check_watchdog(const Reporter& report, const ApplicationProfile& app, pugi::xml_node node,
+                      ConnectionSpec& spec, const PortSpec* target);
 
   // -- component profiles ----------------------------------------------------------------
 

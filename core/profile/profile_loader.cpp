@@ -193,6 +193,8 @@ void Loader::read_connections(const Reporter& report, pugi::xml_node element, Ap
       connection.mapping = read_mapping(report, mapping);
       mapping_readable = diagnostics_.error_count() == errors_before;
     }
+    if (const auto watchdog = ends.one("watchdog")) connection.watchdog = read_watchdog(report, watchdog);
+    read_rate_policies(report, ends, connection);
     app.connections.push_back(std::move(connection));
     nodes.push_back(node);
     mapping_readable_.push_back(mapping_readable);

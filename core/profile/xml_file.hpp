@@ -53,7 +53,15 @@ class XmlFile {
                         "cannot read " + std::string(what) + " " + in_quotes(file_));
       return false;
     }
-    text_ = std::move(bytes).str();
+    return parse(file_, std::move(bytes).str(), diagnostics);
+  }
+
+  // Parses `text` as the contents of a document named `name` (a profile fragment made in
+  // memory, e.g. a connection asked for at run time).
+  bool parse(std::string name, std::string text, Diagnostics& diagnostics) {
+    file_ = std::move(name);
+    diagnostics_ = &diagnostics;
+    text_ = std::move(text);
     line_starts_.assign(1, 0);
     for (std::size_t i = 0; i < text_.size(); ++i) {
       if (text_[i] == '\n') line_starts_.push_back(i + 1);

@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cstdlib>
+#include <utility>
 
 #include "polyport/runtime/component_api.hpp"
 
@@ -41,6 +42,28 @@ void ComponentBase::set_instance(std::string name, std::map<std::string, std::st
   instance_name_ = std::move(name);
   properties_ = std::move(properties);
   period_seconds_ = period_seconds;
+}
+
+ReturnCode ComponentBase::change_property(std::string_view name, std::string value) noexcept {
+  try {
+    auto it = properties_.find(name);
+    const bool added = it == properties_.end();
+    if (added) it = properties_.emplace(std::string(name), std::string()).first;
+    std::string old = std::exchange(it->second, std::move(value));
+    ReturnCode code = ReturnCode::error;
+    try {
+      code = onPropertyChanged(it->first, it->second);
+    } catch (...) {
+      code = ReturnCode::error;
+    }
+    if (code != ReturnCode::ok) {
+      if (added) properties_.erase(it);
+      else it->second = std::move(old);
+    }
+    return code;
+  } catch (...) {  // allocation failed
+    return ReturnCode::error;
+  }
 }
 
 bool ComponentBase::has_property(std::string_view name) const { return properties_.find(name) != properties_.end(); }

@@ -6,6 +6,8 @@
 #include "polyport/runtime/component.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstring>
 
 namespace polyport {
 
@@ -56,12 +58,27 @@ std::string Connection::conversion() const {
 
 void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept {
   counters_.received.fetch_add(1, std::memory_order_relaxed);
-  if (!converts_) {
-    hand_over(data, meta);
+  if (watchdog_) {
+    // The source wrote this sample now; what can make it unusable is a silent upstream or
+    // its own age.
+    if (watchdog_->too_old(meta, meta.t_in)) {
+      counters_.dropped_stale.fetch_add(1, std::memory_order_relaxed);
+      watchdog_->counters().stale.fetch_add(1, std::memory_order_relaxed);
+      hand_over_safe(meta);
+      return;
+    }
+    if (!watchdog_->fresh(meta.t_in)) {
+      hand_over_safe(meta);
+      return;
+    }
+  }
+  if (!converts_ && deadbands_.empty()) {
+    forward(data, meta);
     return;
   }
   SampleMeta converted = meta;
   const std::byte* bytes = data;
+  // The source's flat sample: what a deadband compares and a conversion starts from.
   if (const Codec* codec = source_.codec()) {
     const CodecResult decoded = codec->decode(bytes, converted.size, decoded_.get(), flat_capacity_);
     if (!decoded.ok()) {
@@ -70,6 +87,14 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
     }
     bytes = decoded_.get();
     converted.size = decoded.size;
+  }
+  if (!deadbands_.empty() && !passes_deadbands(bytes)) {
+    counters_.dropped_filtered.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  if (!converts_) {
+    forward(data, meta);  // the bytes as they came
+    return;
   }
   if (mapping_) {
     std::uint32_t mapped_size = 0;
@@ -90,17 +115,136 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
     bytes = encoded_.get();
     converted.size = encoded.size;
   }
-  hand_over(bytes, converted);
+  forward(bytes, converted);
+}
+
+namespace {
+
+double number_at(const std::byte* flat, const DeadbandField& field) noexcept {
+  const std::byte* at = flat + field.offset;
+  const auto get = [at](auto value) {
+    std::memcpy(&value, at, sizeof value);
+    return static_cast<double>(value);
+  };
+  switch (field.kind) {
+    case TypeKind::int8: return get(std::int8_t{});
+    case TypeKind::uint8: case TypeKind::octet: return get(std::uint8_t{});
+    case TypeKind::int16: return get(std::int16_t{});
+    case TypeKind::uint16: return get(std::uint16_t{});
+    case TypeKind::int32: return get(std::int32_t{});
+    case TypeKind::uint32: return get(std::uint32_t{});
+    case TypeKind::int64: return get(std::int64_t{});
+    case TypeKind::uint64: return get(std::uint64_t{});
+    case TypeKind::float32: return get(float{});
+    case TypeKind::float64: return get(double{});
+    default: return 0.0;
+  }
+}
+
+}  // namespace
+
+// Writer thread. The first sample passes; later ones when any field moved by more than its
+// threshold since the last one that passed.
+bool Connection::passes_deadbands(const std::byte* flat) noexcept {
+  bool passes = !deadband_primed_;
+  for (std::size_t i = 0; i < deadbands_.size(); ++i) {
+    deadband_now_[i] = number_at(flat, deadbands_[i]);
+    if (!passes && std::abs(deadband_now_[i] - deadband_last_[i]) > deadbands_[i].threshold) passes = true;
+  }
+  if (passes) {
+    std::copy(deadband_now_.begin(), deadband_now_.end(), deadband_last_.begin());
+    deadband_primed_ = true;
+  }
+  return passes;
+}
+
+void Connection::forward(const std::byte* data, const SampleMeta& meta) noexcept {
+  if (interval_.count > 0) {
+    hand_over_limited(data, meta);
+  } else {
+    hand_over(data, meta);
+  }
+}
+
+// Newest wins: a sample whose turn has not come is held (replacing one held before); the
+// timer thread hands it over when its turn comes, unless a newer sample arrives after it.
+void Connection::hand_over_limited(const std::byte* data, const SampleMeta& meta) noexcept {
+  enter();
+  const bool held_before = has_held_.load(std::memory_order_relaxed);
+  if (meta.t_in.ns - last_sent_.load(std::memory_order_relaxed) >= interval_.count) {
+    if (held_before) has_held_.store(false, std::memory_order_relaxed);
+    last_sent_.store(meta.t_in.ns, std::memory_order_relaxed);
+    hand_over_claimed(data, meta);
+  } else if (meta.size > held_capacity_) {
+    counters_.dropped_too_large.fetch_add(1, std::memory_order_relaxed);
+    leave();
+    return;
+  } else {
+    std::memcpy(held_.get(), data, meta.size);
+    held_meta_ = meta;
+    has_held_.store(true, std::memory_order_relaxed);
+  }
+  // The one held before is replaced by this newer sample either way.
+  if (held_before) counters_.dropped_rate_limited.fetch_add(1, std::memory_order_relaxed);
+  leave();
+}
+
+MonoTime Connection::held_due() const noexcept {
+  if (!has_held_.load(std::memory_order_relaxed)) return MonoTime{};
+  return MonoTime{last_sent_.load(std::memory_order_relaxed) + interval_.count};
+}
+
+bool Connection::release_held(MonoTime now) noexcept {
+  if (!try_enter()) return false;  // the writer has the connection right now
+  if (has_held_.load(std::memory_order_relaxed) && now.ns - last_sent_.load(std::memory_order_relaxed) >= interval_.count) {
+    has_held_.store(false, std::memory_order_relaxed);
+    last_sent_.store(now.ns, std::memory_order_relaxed);
+    hand_over_claimed(held_.get(), held_meta_);
+  }
+  leave();
+  return true;
+}
+
+void Connection::set_rate_limit(Nanos interval) {
+  interval_ = interval;
+  held_capacity_ = std::max(wire_capacity_, std::max(source_.max_sample_bytes(), target_.max_sample_bytes()));
+  held_ = std::make_unique<std::byte[]>(held_capacity_);
+  guarded_ = true;
+}
+
+void Connection::set_deadbands(std::vector<DeadbandField> fields) {
+  deadbands_ = std::move(fields);
+  deadband_last_.assign(deadbands_.size(), 0.0);
+  deadband_now_.assign(deadbands_.size(), 0.0);
+  if (source_.codec() && !decoded_) {
+    flat_capacity_ = std::max(source_.max_sample_bytes(), source_.type() ? source_.type()->size : 0u);
+    decoded_ = std::make_unique<std::byte[]>(flat_capacity_);
+  }
+}
+
+void Connection::set_watchdog(std::unique_ptr<ConnectionWatchdog> watchdog) {
+  watchdog_ = std::move(watchdog);
+  // Push mode: the timer thread writes the safe value to the sink, the writer its samples.
+  if (push_mode()) guarded_ = true;
+}
+
+void Connection::enter() noexcept {
+  while (busy_.exchange(true, std::memory_order_acquire)) {
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#endif
+  }
 }
 
 void Connection::hand_over(const std::byte* data, const SampleMeta& meta) noexcept {
+  if (guarded_) enter();
+  hand_over_claimed(data, meta);
+  if (guarded_) leave();
+}
+
+void Connection::hand_over_claimed(const std::byte* data, const SampleMeta& meta) noexcept {
   if (!buffer_) {
-    // polyport's own time ends where the sink (an adaptor, or a foreign SDK's write) begins.
-    const MonoTime handed = mono_now();
-    latency_.record((handed - meta.t_in).count);
-    if (meta.t_source.ns != 0) transit_.record((handed - meta.t_source).count);
-    const Status status = target_.sink()->on_sample(data, meta);
-    sink_time_.record((mono_now() - handed).count);
+    const Status status = to_sink(data, meta);
     if (status == Status::ok) {
       counters_.delivered.fetch_add(1, std::memory_order_relaxed);
     } else {
@@ -133,14 +277,72 @@ void Connection::hand_over(const std::byte* data, const SampleMeta& meta) noexce
   }
 }
 
+Status Connection::to_sink(const std::byte* data, const SampleMeta& meta) noexcept {
+  // polyport's own time ends where the sink (an adaptor, or a foreign SDK's write) begins.
+  const MonoTime handed = mono_now();
+  latency_.record((handed - meta.t_in).count);
+  if (meta.t_source.ns != 0) transit_.record((handed - meta.t_source).count);
+  const Status status = target_.sink()->on_sample(data, meta);
+  sink_time_.record((mono_now() - handed).count);
+  return status;
+}
+
+// The safe value instead of a sample (already in the target's format: no conversion).
+void Connection::hand_over_safe(const SampleMeta& meta) noexcept {
+  watchdog_->counters().safe_values.fetch_add(1, std::memory_order_relaxed);
+  hand_over(watchdog_->safe_bytes(), SampleMeta{watchdog_->safe_size(), meta.t_in, {}});
+}
+
+bool Connection::emit_safe_value(MonoTime now) noexcept {
+  if (!watchdog_ || buffer_) return false;  // pull-mode readers take it themselves
+  if (!try_enter()) return false;  // a sample is on its way to the sink right now
+  watchdog_->counters().safe_values.fetch_add(1, std::memory_order_relaxed);
+  const Status status = to_sink(watchdog_->safe_bytes(), SampleMeta{watchdog_->safe_size(), now, {}});
+  leave();
+  if (status != Status::ok) counters_.dropped_sink_error.fetch_add(1, std::memory_order_relaxed);
+  return true;
+}
+
 PopResult Connection::take(std::byte* dst, std::uint32_t capacity, SampleMeta& meta) noexcept {
   if (!buffer_) return PopResult::no_data;
+  if (!watchdog_) {
+    const PopResult result = buffer_->pop(dst, capacity, meta);
+    if (result == PopResult::new_data) {
+      counters_.read.fetch_add(1, std::memory_order_relaxed);
+      age_.record((mono_now() - meta.t_in).count);
+    }
+    return result;
+  }
+  // With a watchdog: one clock read, at the start, for freshness, age and the age histogram.
+  const MonoTime now = mono_now();
+  if (!watchdog_->fresh(now)) return take_safe(dst, capacity, meta, now);
   const PopResult result = buffer_->pop(dst, capacity, meta);
   if (result == PopResult::new_data) {
+    if (watchdog_->too_old(meta, now)) {
+      counters_.dropped_stale.fetch_add(1, std::memory_order_relaxed);
+      watchdog_->counters().stale.fetch_add(1, std::memory_order_relaxed);
+      return take_safe(dst, capacity, meta, now);
+    }
+    reader_has_safe_ = false;
     counters_.read.fetch_add(1, std::memory_order_relaxed);
-    age_.record((mono_now() - meta.t_in).count);
+    age_.record((now - meta.t_in).count);
   }
   return result;
+}
+
+// The reader gets the safe value as a new sample once, then as the value it already has
+// (`data`) or nothing new (queues), until samples pass again.
+PopResult Connection::take_safe(std::byte* dst, std::uint32_t capacity, SampleMeta& meta, MonoTime now) noexcept {
+  const std::uint32_t size = watchdog_->safe_size();
+  if (size > capacity) return PopResult::too_small;
+  const bool again = reader_has_safe_;
+  if (again && policy_ != QueuePolicy::data) return PopResult::no_data;
+  std::copy_n(watchdog_->safe_bytes(), size, dst);
+  meta = SampleMeta{size, now, {}};
+  if (again) return PopResult::old_data;
+  reader_has_safe_ = true;
+  watchdog_->counters().safe_values.fetch_add(1, std::memory_order_relaxed);
+  return PopResult::new_data;
 }
 
 }  // namespace polyport

@@ -2,6 +2,8 @@
 #include "polyport/runtime/engine.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -27,6 +29,20 @@ std::string join(const std::vector<std::string>& items) {
 }
 
 std::string type_name(const Port& port) { return port.type() ? port.type()->name : std::string(); }
+
+// A connection's policies beyond its queue, as check and stats show them.
+void describe_policies(const Connection& c, nlohmann::json& j) {
+  if (const ConnectionWatchdog* watchdog = c.watchdog()) {
+    nlohmann::json w{{"deadline_ns", watchdog->deadline().count}, {"safe_value_bytes", watchdog->safe_size()}};
+    if (watchdog->max_age().count > 0) w["max_age_ns"] = watchdog->max_age().count;
+    if (watchdog->upstream()) w["upstream"] = watchdog->upstream()->full_name();
+    j["watchdog"] = std::move(w);
+  }
+  if (c.rate_interval().count > 0) j["rate_limit_interval_ns"] = c.rate_interval().count;
+  for (const DeadbandField& band : c.deadbands()) {
+    j["deadbands"].push_back({{"field", band.path}, {"threshold", band.threshold}});
+  }
+}
 
 }  // namespace
 
@@ -59,7 +75,20 @@ bool Engine::build(const ApplicationProfile& profile, Diagnostics& diagnostics) 
       continue;
     }
     auto connected = connect_ports(*source, *target, spec.policy, spec.depth, spec.program);
-    if (!connected) diagnostics.error(spec.where, {}, connected.error().message);
+    if (!connected) {
+      diagnostics.error(spec.where, {}, connected.error().message);
+      continue;
+    }
+    Connection* connection = connected.value();
+    if (connection == nullptr) continue;  // a service connection
+    if (spec.watchdog) {
+      auto watched = add_watchdog(*connection, *spec.watchdog);
+      if (!watched) diagnostics.error(spec.watchdog->where, {}, watched.error().message);
+    }
+    if (auto limited = add_rate_policies(*connection, spec); !limited) {
+      diagnostics.error(spec.where, {}, limited.error().message);
+    }
+    if (connection->watchdog() || connection->rate_interval().count > 0) timer_.add(*connection);
   }
   return !diagnostics.has_errors();
 }
@@ -117,6 +146,86 @@ Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optio
   return &connection;
 }
 
+// The safe value is made once here: the profile's constants in the target's flat layout,
+// encoded in the target's wire format.
+Result<void> Engine::add_watchdog(Connection& connection, const WatchdogSpec& spec) {
+  const DataInPort& target = connection.target();
+  if (!spec.safe_program || !target.type()) return make_error("the watchdog's safe value has no type to take");
+  const DataOutPort* upstream = nullptr;
+  if (spec.upstream) {
+    upstream = dynamic_cast<const DataOutPort*>(find_port(spec.upstream->component + "." + spec.upstream->port));
+    if (!upstream) return make_error("the watchdog's upstream port was not created by its model");
+  }
+  const std::uint32_t flat_capacity = std::max(target.type()->size, target.max_sample_bytes());
+  std::vector<std::byte> zero(target.type()->size), flat(flat_capacity);
+  std::uint32_t flat_size = 0;
+  if (!spec.safe_program->run(zero.data(), static_cast<std::uint32_t>(zero.size()), flat.data(), flat_capacity,
+                              flat_size)) {
+    return make_error("the watchdog's safe value could not be made for " + target.full_name());
+  }
+  flat.resize(flat_size);
+  std::vector<std::byte> safe = std::move(flat);
+  if (const Codec* codec = target.codec()) {
+    std::vector<std::byte> wire(codec->max_wire_size(flat_size));
+    const CodecResult encoded = codec->encode(safe.data(), flat_size, wire.data(), static_cast<std::uint32_t>(wire.size()));
+    if (!encoded.ok()) return make_error("the watchdog's safe value cannot be encoded for " + target.full_name());
+    wire.resize(encoded.size);
+    safe = std::move(wire);
+  }
+  auto watchdog = std::make_unique<ConnectionWatchdog>(connection.source(), upstream, Nanos{spec.deadline_ns},
+                                                       Nanos{spec.max_age_ns}, std::move(safe));
+  if (spec.event) {
+    auto events = watchdog_events(connection, *spec.event);
+    if (!events) return events.error();
+    watchdog->set_events(events.value(), connection.name());
+  }
+  connection.set_watchdog(std::move(watchdog));
+  return {};
+}
+
+// An engine-owned output port ("watchdogs.<target of the watched connection>") connected to
+// the profile's <event> port, whose type must have WatchdogEventSample's layout.
+Result<DataOutPort*> Engine::watchdog_events(const Connection& watched, const ConnectionEnd& end) {
+  Port* target = find_port(end.component + "." + end.port);
+  if (!target) return make_error("the watchdog's event port " + end.component + "." + end.port + " was not created by its model");
+  const Type* type = types_.find("polyport::WatchdogEvent");
+  const auto offset = [type](std::string_view field) -> std::int64_t {
+    const Field* f = type->find_field(field);
+    return f ? f->offset : -1;
+  };
+  if (type == nullptr || type->size != sizeof(WatchdogEventSample) ||
+      offset("kind") != offsetof(WatchdogEventSample, kind) || offset("trips") != offsetof(WatchdogEventSample, trips) ||
+      offset("recoveries") != offsetof(WatchdogEventSample, recoveries) ||
+      offset("silent_ns") != offsetof(WatchdogEventSample, silent_ns) ||
+      offset("connection") != offsetof(WatchdogEventSample, connection) ||
+      offset("silent_port") != offsetof(WatchdogEventSample, silent_port)) {
+    return make_error("polyport::WatchdogEvent is not the type of config/types/watchdog_event.idl");
+  }
+  if (!watchdog_events_) watchdog_events_ = std::make_unique<Component>("watchdogs", "inproc");
+  auto& out = watchdog_events_->add_port<DataOutPort>(watched.target().full_name(), target->kind(), type,
+                                                      static_cast<std::uint32_t>(sizeof(WatchdogEventSample)));
+  auto connected = connect_ports(out, *target, std::nullopt, std::nullopt);
+  if (!connected) return connected.error();
+  return &out;
+}
+
+Result<void> Engine::add_rate_policies(Connection& connection, const ConnectionSpec& spec) {
+  if (spec.rate_limit_per_second) {
+    connection.set_rate_limit(Nanos{static_cast<std::int64_t>(std::llround(1e9 / *spec.rate_limit_per_second))});
+  }
+  if (spec.deadbands.empty()) return {};
+  const Type* type = connection.source().type();
+  if (type == nullptr) return make_error("a deadband needs a data type on " + connection.source().full_name());
+  std::vector<DeadbandField> fields;
+  for (const DeadbandSpec& band : spec.deadbands) {
+    const FieldPathResult found = find_field_path(*type, band.field);
+    if (!found.place) return make_error("deadband field '" + band.field + "' not found in '" + type->name + "'");
+    fields.push_back(DeadbandField{found.place->offset, found.place->type->kind, band.threshold, band.field});
+  }
+  connection.set_deadbands(std::move(fields));
+  return {};
+}
+
 Result<Connection*> Engine::connect(const std::string& source_component, const std::string& source_port,
                                     const std::string& target_component, const std::string& target_port,
                                     std::optional<QueuePolicy> policy, std::optional<std::uint32_t> depth) {
@@ -125,6 +234,45 @@ Result<Connection*> Engine::connect(const std::string& source_component, const s
   if (!source) return make_error("no port " + source_component + "." + source_port);
   if (!target) return make_error("no port " + target_component + "." + target_port);
   return connect_ports(*source, *target, policy, depth);
+}
+
+Result<Connection*> Engine::add_connection(const ConnectionSpec& spec) {
+  const std::string source_name = spec.source.component + "." + spec.source.port;
+  const std::string target_name = spec.target.component + "." + spec.target.port;
+  Port* source = find_port(source_name);
+  Port* target = find_port(target_name);
+  if (!source) return make_error("no port " + source_name);
+  if (!target) return make_error("no port " + target_name);
+  for (const auto& c : connections_) {
+    if (&c->source() == source && &c->target() == target) {
+      return make_error(source_name + " is already connected to " + target_name);
+    }
+  }
+  return connect_ports(*source, *target, spec.policy, spec.depth, spec.program);
+}
+
+Result<void> Engine::remove_connection(std::string_view source, std::string_view target) {
+  for (auto it = connections_.begin(); it != connections_.end(); ++it) {
+    Connection& c = **it;
+    if (&c.target().owner() == probes_.get() || c.source().full_name() != source || c.target().full_name() != target) {
+      continue;
+    }
+    // The writer stops first, then the reader lets go of what was queued, then the timer
+    // (watchdog, rate limit) stops handing it anything.
+    c.source().connections().remove(c);
+    c.target().connections().remove(c);
+    timer_.remove(c);
+    removed_.push_back(std::move(*it));
+    connections_.erase(it);
+    return {};
+  }
+  for (const auto& [required, provided] : service_links_) {
+    if (required->full_name() == source && provided->full_name() == target) {
+      // Callers read the binding without a lock; it is fixed while the application runs.
+      return make_error("service connections cannot be removed while the application runs");
+    }
+  }
+  return make_error("no connection " + std::string(source) + " -> " + std::string(target));
 }
 
 Result<DataInPort*> Engine::add_probe(const std::string& port_path, std::uint32_t depth) {
@@ -153,6 +301,7 @@ Result<void> Engine::start(std::vector<std::string>& warnings) {
       return make_error("component '" + node.name + "' did not start: " + started.error().message);
     }
   }
+  timer_.start(notify_);
   return {};
 }
 
@@ -198,6 +347,7 @@ std::vector<std::size_t> Engine::receivers_first() const {
 void Engine::stop() {
   if (!started_) return;
   started_ = false;
+  timer_.stop();  // no safe value or held sample goes to a component that is stopping
   for (auto it = start_order_.rbegin(); it != start_order_.rend(); ++it) nodes_[*it].proxy.interceptor->stop();
   start_order_.clear();
   executors_.stop_all();
@@ -263,6 +413,7 @@ void Engine::describe(nlohmann::json& out) const {
                      {"mode", c->push_mode() ? "push" : "pull"},
                      {"conversion", c->conversion()}};
     if (c->policy() != QueuePolicy::data) j["depth"] = c->depth();
+    describe_policies(*c, j);
     out["connections"].push_back(std::move(j));
   }
   for (const auto& [required, provided] : service_links_) {
@@ -298,7 +449,8 @@ void Engine::stats(nlohmann::json& out) const {
     out["components"].push_back(std::move(component));
   }
   out["connections"] = nlohmann::json::array();
-  for (const auto& c : connections_) {
+  // Removed ones too (remove_connection), marked: what flowed through them stays counted.
+  for (const auto* list : {&connections_, &removed_}) for (const auto& c : *list) {
     const ConnectionCounters& k = c->counters();
     auto load = [](const std::atomic<std::uint64_t>& v) { return v.load(std::memory_order_relaxed); };
     nlohmann::json j{{"name", c->name()},
@@ -308,6 +460,7 @@ void Engine::stats(nlohmann::json& out) const {
                      {"policy", to_string(c->policy())},
                      {"mode", c->push_mode() ? "push" : "pull"},
                      {"probe", &c->target().owner() == probes_.get()},
+                     {"removed", list == &removed_},
                      {"received", load(k.received)},
                      {"delivered", load(k.delivered)},
                      {"read", load(k.read)},
@@ -327,6 +480,21 @@ void Engine::stats(nlohmann::json& out) const {
     if (!c->push_mode()) j["age_at_read_ns"] = to_json(c->age().summarize());
     if (c->push_mode()) j["sink_ns"] = to_json(c->sink_time().summarize());
     if (const auto transit = c->transit().summarize(); transit.count != 0) j["transit_ns"] = to_json(transit);
+    describe_policies(*c, j);
+    if (c->rate_interval().count > 0 || !c->deadbands().empty()) {
+      j["dropped_by_reason"]["rate_limited"] = load(k.dropped_rate_limited);
+      j["dropped_by_reason"]["filtered"] = load(k.dropped_filtered);
+    }
+    if (const ConnectionWatchdog* watchdog = c->watchdog()) {
+      nlohmann::json& w = j["watchdog"];
+      const WatchdogCounters& wk = watchdog->counters();
+      w["state"] = to_string(watchdog->state());
+      w["trips"] = load(wk.trips);
+      w["recoveries"] = load(wk.recoveries);
+      w["safe_values"] = load(wk.safe_values);
+      w["stale"] = load(wk.stale);
+      j["dropped_by_reason"]["stale"] = load(k.dropped_stale);
+    }
     out["connections"].push_back(std::move(j));
   }
   out["services"] = nlohmann::json::array();

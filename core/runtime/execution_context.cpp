@@ -79,18 +79,21 @@ void ExecutionContext::stop() {
 }
 
 ReturnCode ExecutionContext::command(Lifecycle& lifecycle, LifecycleCommand command) {
+  return call([&] { return lifecycle.apply(command); });
+}
+
+ReturnCode ExecutionContext::call(const std::function<ReturnCode()>& task) {
   std::unique_lock<std::mutex> lock(command_mutex_);
   // One command at a time; commands are rare, so waiting callers simply queue on the mutex.
   command_done_.wait(lock, [&] { return !command_pending_.load(std::memory_order_acquire) || !running(); });
-  if (!running()) return lifecycle.apply(command);  // serialized by the mutex
-  command_target_ = &lifecycle;
-  command_ = command;
+  if (!running()) return task();  // serialized by the mutex
+  command_task_ = &task;
   command_finished_ = false;
   command_pending_.store(true, std::memory_order_release);
   wake();
   command_done_.wait(lock, [&] { return command_finished_ || !running(); });
   // If the thread ended before taking the command, run it here, still under the mutex.
-  const ReturnCode result = command_finished_ ? command_result_ : lifecycle.apply(command);
+  const ReturnCode result = command_finished_ ? command_result_ : task();
   command_pending_.store(false, std::memory_order_release);
   command_done_.notify_all();
   return result;
@@ -99,7 +102,7 @@ ReturnCode ExecutionContext::command(Lifecycle& lifecycle, LifecycleCommand comm
 void ExecutionContext::apply_pending_command() {
   std::lock_guard<std::mutex> lock(command_mutex_);
   if (!command_pending_.load(std::memory_order_acquire) || command_finished_) return;
-  command_result_ = command_target_->apply(command_);
+  command_result_ = (*command_task_)();
   command_finished_ = true;
   command_done_.notify_all();
 }

@@ -15,6 +15,11 @@ std::vector<OperationInfo> operations_of(const PortSpec& spec, const TypeRegistr
   return out;
 }
 
+ReturnCode Interceptor::set_property(std::string_view, const std::string&, std::string& why) {
+  why = "polyport cannot pass a property to a component of this model while it runs";
+  return ReturnCode::unsupported;
+}
+
 ReturnCode start_stop_command(Interceptor& interceptor, LifecycleCommand command) {
   switch (command) {
     case LifecycleCommand::initialize:

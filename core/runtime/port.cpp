@@ -45,12 +45,14 @@ DataOutPort::DataOutPort(Component& owner, std::string name, PortKind kind, cons
 
 Status DataOutPort::write(const void* data, std::uint32_t size, MonoTime t_source) noexcept {
   written_.fetch_add(1, std::memory_order_relaxed);
+  const MonoTime now = mono_now();
+  last_write_.store(now.ns, std::memory_order_relaxed);
   const ConnectionSet::List& list = connections_.current();
   if (list.size == 0) {
     unconnected_.fetch_add(1, std::memory_order_relaxed);
     return Status::not_connected;
   }
-  const SampleMeta meta{size, mono_now(), t_source};
+  const SampleMeta meta{size, now, t_source};
   const auto* bytes = static_cast<const std::byte*>(data);
   for (Connection* connection : list) connection->deliver(bytes, meta);
   return Status::ok;

@@ -1,20 +1,126 @@
 #include "admin_protocol.hpp"
 
 #include <array>
+#include <cstdint>
 #include <cstdlib>
 #include <utility>
 
 namespace polyport::admin {
 namespace {
 
-constexpr std::array<std::pair<std::string_view, Command>, 6> kCommands{{
+constexpr std::array<std::pair<std::string_view, Command>, 10> kCommands{{
     {"hello", Command::hello},
     {"list", Command::list},
     {"stats", Command::stats},
     {"activate", Command::activate},
     {"deactivate", Command::deactivate},
     {"reset", Command::reset},
+    {"get", Command::get},
+    {"set", Command::set},
+    {"connect", Command::connect},
+    {"disconnect", Command::disconnect},
 }};
+
+// The fields a request may carry besides v, id and cmd.
+enum Field : unsigned {
+  kComponent = 1u << 0,
+  kProperty = 1u << 1,
+  kValue = 1u << 2,
+  kSource = 1u << 3,
+  kTarget = 1u << 4,
+  kPolicy = 1u << 5,
+  kDepth = 1u << 6,
+};
+constexpr std::array<std::pair<const char*, Field>, 7> kFields{{
+    {"component", kComponent},
+    {"property", kProperty},
+    {"value", kValue},
+    {"source", kSource},
+    {"target", kTarget},
+    {"policy", kPolicy},
+    {"depth", kDepth},
+}};
+
+struct Shape {
+  unsigned required;
+  unsigned optional;
+};
+
+Shape shape_of(Command command) noexcept {
+  switch (command) {
+    case Command::hello:
+    case Command::list:
+    case Command::stats:
+      return {0, 0};
+    case Command::activate:
+    case Command::deactivate:
+    case Command::reset:
+      return {kComponent, 0};
+    case Command::get:
+      return {kComponent, kProperty};
+    case Command::set:
+      return {kComponent | kProperty | kValue, 0};
+    case Command::connect:
+      return {kSource | kTarget, kPolicy | kDepth};
+    case Command::disconnect:
+      return {kSource | kTarget, 0};
+  }
+  return {0, 0};
+}
+
+std::string known_commands() {
+  std::string out;
+  for (const auto& [name, value] : kCommands) out += (out.empty() ? "" : ", ") + std::string(name);
+  return out;
+}
+
+// A field's value into `request`; the reason in `message` when it is not acceptable.
+bool read_field(Field field, const nlohmann::json& v, Request& request, std::string& message) {
+  auto text = [&](std::string& out, const char* what) {
+    if (!v.is_string() || v.get_ref<const std::string&>().empty()) {
+      message = std::string("\"") + what + "\" must be a non-empty string";
+      return false;
+    }
+    out = v.get<std::string>();
+    return true;
+  };
+  auto port = [&](std::string& out, const char* what) {
+    if (!text(out, what)) return false;
+    const auto dot = out.find('.');
+    if (dot == std::string::npos || dot == 0 || dot + 1 == out.size()) {
+      message = std::string("\"") + what + "\" must name a port as COMPONENT.PORT, not '" + out + "'";
+      return false;
+    }
+    return true;
+  };
+  switch (field) {
+    case kComponent: return text(request.component, "component");
+    case kProperty: return text(request.property, "property");
+    case kPolicy: return text(request.policy, "policy");
+    case kSource: return port(request.source, "source");
+    case kTarget: return port(request.target, "target");
+    case kValue:
+      if (v.is_string()) request.value = v.get<std::string>();
+      else if (v.is_boolean() || v.is_number()) request.value = v.dump();
+      else {
+        message = "\"value\" must be a string, a number or a boolean";
+        return false;
+      }
+      return true;
+    case kDepth:
+      if (v.is_number_integer() && !v.is_number_unsigned()) {
+        request.depth = v.get<std::int64_t>();
+        return true;
+      }
+      if (v.is_number_unsigned() && v.get<std::uint64_t>() <= static_cast<std::uint64_t>(INT64_MAX)) {
+        request.depth = static_cast<std::int64_t>(v.get<std::uint64_t>());
+        return true;
+      }
+      message = "\"depth\" must be an integer";
+      return false;
+  }
+  return false;
+}
 
 std::string dump(const nlohmann::json& j) {
   // Replaces bytes that are not UTF-8 instead of throwing.
@@ -30,9 +136,7 @@ std::string_view to_string(Command command) noexcept {
   return "?";
 }
 
-bool needs_component(Command command) noexcept {
-  return command == Command::activate || command == Command::deactivate || command == Command::reset;
-}
+bool needs_component(Command command) noexcept { return (shape_of(command).required & kComponent) != 0; }
 
 std::optional<Request> parse_request(std::string_view line, ParseError& error) {
   error = ParseError{};
@@ -91,21 +195,30 @@ std::optional<Request> parse_request(std::string_view line, ParseError& error) {
   }
   if (!known) {
     error.code = kUnknownCommand;
-    error.message = "unknown command '" + name + "' (known: hello, list, stats, activate, deactivate, reset)";
+    error.message = "unknown command '" + name + "' (known: " + known_commands() + ")";
     return std::nullopt;
   }
-  auto component = j.find("component");
-  if (needs_component(request.command)) {
-    if (component == j.end() || !component->is_string() || component->get_ref<const std::string&>().empty()) {
+  const Shape shape = shape_of(request.command);
+  for (const auto& [field_name, field] : kFields) {
+    auto it = j.find(field_name);
+    if (it == j.end()) {
+      if ((shape.required & field) == 0) continue;
       error.code = kBadRequest;
-      error.message = "'" + name + "' needs \"component\": the name of a component";
+      error.message = "'" + name + "' needs \"" + field_name + "\"";
+      if (field == kComponent) error.message += ": the name of a component";
+      if (field == kSource || field == kTarget) error.message += ": a port as COMPONENT.PORT";
       return std::nullopt;
     }
-    request.component = component->get<std::string>();
-  } else if (component != j.end()) {
-    error.code = kBadRequest;
-    error.message = "'" + name + "' takes no \"component\"";
-    return std::nullopt;
+    if (((shape.required | shape.optional) & field) == 0) {
+      error.code = kBadRequest;
+      error.message = "'" + name + "' takes no \"" + field_name + "\"";
+      return std::nullopt;
+    }
+    if (!read_field(field, *it, request, error.message)) {
+      error.code = kBadRequest;
+      error.message = "'" + name + "': " + error.message;
+      return std::nullopt;
+    }
   }
   return request;
 }
@@ -118,10 +231,28 @@ std::string error_reply(const nlohmann::json& id, std::string_view code, std::st
   return dump({{"v", kProtocolVersion}, {"id", id}, {"ok", false}, {"code", code}, {"error", message}});
 }
 
-std::string request_line(const nlohmann::json& id, Command command, std::string_view component) {
-  nlohmann::json j{{"v", kProtocolVersion}, {"id", id}, {"cmd", to_string(command)}};
-  if (needs_component(command)) j["component"] = component;
+std::string request_line(const Request& request) {
+  nlohmann::json j{{"v", kProtocolVersion}, {"id", request.id}, {"cmd", to_string(request.command)}};
+  const Shape shape = shape_of(request.command);
+  const unsigned fields = shape.required | shape.optional;
+  if (fields & kComponent) j["component"] = request.component;
+  if ((fields & kProperty) && ((shape.required & kProperty) || !request.property.empty())) {
+    j["property"] = request.property;
+  }
+  if (fields & kValue) j["value"] = request.value;
+  if (fields & kSource) j["source"] = request.source;
+  if (fields & kTarget) j["target"] = request.target;
+  if ((fields & kPolicy) && !request.policy.empty()) j["policy"] = request.policy;
+  if ((fields & kDepth) && request.depth) j["depth"] = *request.depth;
   return dump(j);
+}
+
+std::string request_line(const nlohmann::json& id, Command command, std::string_view component) {
+  Request request;
+  request.id = id;
+  request.command = command;
+  request.component = component;
+  return request_line(request);
 }
 
 std::string default_socket_dir() {

@@ -1,11 +1,12 @@
 // The admin socket's protocol (docs/CONTROL.md): one JSON object per line, at most
-// kMaxRequestLine bytes, `{"v":1,"id":...,"cmd":"...","component":"..."}` in,
+// kMaxRequestLine bytes, `{"v":1,"id":...,"cmd":"...",...fields of the command}` in,
 // `{"v":1,"id":...,"ok":true,"result":...}` or `{"v":1,"id":...,"ok":false,"code":"...",
 // "error":"..."}` out. Pure functions and a line buffer, no I/O: the control thread of
 // polyportd and polyportctl both use them, and tests/fuzz/fuzz_admin_request.cpp fuzzes them.
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -20,15 +21,21 @@ inline constexpr int kProtocolVersion = 1;
 inline constexpr std::size_t kMaxRequestLine = 64 * 1024;
 
 // The commands of protocol version 1.
-enum class Command { hello, list, stats, activate, deactivate, reset };
+enum class Command { hello, list, stats, activate, deactivate, reset, get, set, connect, disconnect };
 std::string_view to_string(Command command) noexcept;
-// Lifecycle commands name a component.
+// Lifecycle commands, get and set name a component.
 bool needs_component(Command command) noexcept;
 
 struct Request {
   nlohmann::json id;      // echoed in the reply (null when the request had none)
   Command command = Command::hello;
-  std::string component;  // activate / deactivate / reset
+  std::string component;  // activate, deactivate, reset, get, set
+  std::string property;   // get (empty: every property), set
+  std::string value;      // set: the new value as text (a JSON number or boolean, written out)
+  std::string source;     // connect, disconnect: "Component.port"
+  std::string target;     // connect, disconnect: "Component.port"
+  std::string policy;     // connect (empty: the input port's)
+  std::optional<std::int64_t> depth;  // connect
 };
 
 // Error codes of a refused request (the reply's "code"); polyportctl maps access_denied to
@@ -37,6 +44,11 @@ inline constexpr const char* kBadRequest = "bad_request";
 inline constexpr const char* kTooLong = "too_long";
 inline constexpr const char* kUnknownCommand = "unknown_command";
 inline constexpr const char* kUnknownComponent = "unknown_component";
+inline constexpr const char* kUnknownProperty = "unknown_property";
+inline constexpr const char* kBadValue = "bad_value";
+inline constexpr const char* kUnsupported = "unsupported";
+inline constexpr const char* kInvalidConnection = "invalid_connection";
+inline constexpr const char* kUnknownConnection = "unknown_connection";
 inline constexpr const char* kRefused = "refused";
 inline constexpr const char* kAccessDenied = "access_denied";
 
@@ -52,7 +64,8 @@ std::optional<Request> parse_request(std::string_view line, ParseError& error);
 // Reply lines, newline included. Never throw (strings that are not UTF-8 are replaced).
 std::string ok_reply(const nlohmann::json& id, const nlohmann::json& result);
 std::string error_reply(const nlohmann::json& id, std::string_view code, std::string_view message);
-// A request line, newline included (polyportctl).
+// A request line, newline included (polyportctl): the fields `request.command` takes.
+std::string request_line(const Request& request);
 std::string request_line(const nlohmann::json& id, Command command, std::string_view component = {});
 
 // Where daemons put their sockets by default: $XDG_RUNTIME_DIR/polyport when XDG_RUNTIME_DIR

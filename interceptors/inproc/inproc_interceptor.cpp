@@ -40,6 +40,19 @@ void InprocInterceptor::stop() noexcept {
   for (ProvidedServicePort* port : provided_) port->cancel_queued(Status::not_active);
 }
 
+ReturnCode InprocInterceptor::set_property(std::string_view name, const std::string& value, std::string& why) {
+  if (context_ == nullptr) {
+    // A passive component runs on its callers' threads, which read its properties without a
+    // lock: there is no thread of its own to make the change on.
+    why = "a passive component's properties are fixed while it runs";
+    return ReturnCode::unsupported;
+  }
+  const ReturnCode code = context_->call([&] { return instance_->change_property(name, value); });
+  if (code == ReturnCode::unsupported) why = "the component does not take changes of this property while it runs";
+  else if (code != ReturnCode::ok) why = "the component refused the value (onPropertyChanged returned " + std::string(to_string(code)) + ")";
+  return code;
+}
+
 InterceptorStatus InprocInterceptor::status() const {
   return InterceptorStatus{std::string(to_string(lifecycle_.state())), lifecycle_.executions(), lifecycle_.errors()};
 }

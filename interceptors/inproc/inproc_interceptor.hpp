@@ -25,6 +25,8 @@ class InprocInterceptor final : public Interceptor {
   ReturnCode command(LifecycleCommand command) override;
   InterceptorStatus status() const override;
   void describe(nlohmann::json& out) const override;
+  ReturnCode set_property(std::string_view name, const std::string& value, std::string& why) override;
+  const std::map<std::string, std::string, std::less<>>* properties() const override { return &instance_->properties(); }
 
  private:
   std::unique_ptr<ComponentBase> instance_;

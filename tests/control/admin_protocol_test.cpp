@@ -22,7 +22,7 @@ TEST(AdminRequest, ParsesEveryCommand) {
     EXPECT_EQ(to_string(r->command), name);
     EXPECT_EQ(r->id, "a");
   }
-  for (const char* name : {"activate", "deactivate", "reset"}) {
+  for (const char* name : {"activate", "deactivate", "reset", "get"}) {
     auto r = parse(std::string(R"({"v":1,"cmd":")") + name + R"(","component":"Control"})", error);
     ASSERT_TRUE(r) << name << ": " << error.message;
     EXPECT_EQ(to_string(r->command), name);
@@ -43,7 +43,7 @@ TEST(AdminRequest, RefusesWithAReasonAndKeepsTheId) {
                         Case{R"({"v":1,"id":3})", kBadRequest, "\"cmd\""},
                         Case{R"({"v":1,"id":3,"cmd":"reload"})", kUnknownCommand, "unknown command 'reload'"},
                         Case{R"({"v":1,"id":3,"cmd":"activate"})", kBadRequest, "needs \"component\""},
-                        Case{R"({"v":1,"id":3,"cmd":"activate","component":""})", kBadRequest, "needs \"component\""},
+                        Case{R"({"v":1,"id":3,"cmd":"activate","component":""})", kBadRequest, "\"component\" must be a non-empty string"},
                         Case{R"({"v":1,"id":3,"cmd":"list","component":"X"})", kBadRequest, "takes no"},
                         Case{R"({"v":1,"id":[3],"cmd":"list"})", kBadRequest, "\"id\""}}) {
     ParseError error;
@@ -54,6 +54,113 @@ TEST(AdminRequest, RefusesWithAReasonAndKeepsTheId) {
       EXPECT_EQ(error.id, 3) << c.line;
     }
   }
+}
+
+TEST(AdminRequest, ParsesPropertyAndWiringCommands) {
+  ParseError error;
+  auto all = parse(R"({"v":1,"cmd":"get","component":"Joystick"})", error);
+  ASSERT_TRUE(all) << error.message;
+  EXPECT_EQ(all->command, Command::get);
+  EXPECT_EQ(all->component, "Joystick");
+  EXPECT_EQ(all->property, "");
+  auto one = parse(R"({"v":1,"cmd":"get","component":"Joystick","property":"max_speed"})", error);
+  ASSERT_TRUE(one) << error.message;
+  EXPECT_EQ(one->property, "max_speed");
+  // A value may be given as a string, a number or a boolean; it travels as text.
+  for (const auto& [json_value, text] : {std::pair{R"("0.8")", "0.8"}, std::pair{"0.8", "0.8"}, std::pair{"3", "3"},
+                                         std::pair{"-3", "-3"}, std::pair{"true", "true"}, std::pair{R"("")", ""}}) {
+    auto set = parse(std::string(R"({"v":1,"cmd":"set","component":"J","property":"p","value":)") + json_value + "}", error);
+    ASSERT_TRUE(set) << json_value << ": " << error.message;
+    EXPECT_EQ(set->command, Command::set);
+    EXPECT_EQ(set->value, text) << json_value;
+  }
+  auto connect = parse(R"({"v":1,"cmd":"connect","source":"HW.joystick","target":"Spare.position","policy":"buffer","depth":8})", error);
+  ASSERT_TRUE(connect) << error.message;
+  EXPECT_EQ(connect->source, "HW.joystick");
+  EXPECT_EQ(connect->target, "Spare.position");
+  EXPECT_EQ(connect->policy, "buffer");
+  EXPECT_EQ(connect->depth, 8);
+  auto bare = parse(R"({"v":1,"cmd":"connect","source":"A.o","target":"B.i"})", error);
+  ASSERT_TRUE(bare) << error.message;
+  EXPECT_EQ(bare->policy, "");
+  EXPECT_FALSE(bare->depth);
+  // The depth's range is the loader's to check, as for a profile: any integer passes here.
+  auto zero = parse(R"({"v":1,"cmd":"connect","source":"A.o","target":"B.i","depth":0})", error);
+  ASSERT_TRUE(zero) << error.message;
+  EXPECT_EQ(zero->depth, 0);
+  auto disconnect = parse(R"({"v":1,"cmd":"disconnect","source":"A.o","target":"B.i"})", error);
+  ASSERT_TRUE(disconnect) << error.message;
+  EXPECT_EQ(disconnect->command, Command::disconnect);
+}
+
+TEST(AdminRequest, RefusesBadPropertyAndWiringRequests) {
+  struct Case {
+    const char* line;
+    const char* says;
+  };
+  for (const Case& c : {
+           Case{R"({"v":1,"cmd":"get"})", "'get' needs \"component\""},
+           Case{R"({"v":1,"cmd":"get","component":"J","property":""})", "\"property\" must be a non-empty string"},
+           Case{R"({"v":1,"cmd":"get","component":"J","value":"1"})", "'get' takes no \"value\""},
+           Case{R"({"v":1,"cmd":"set","component":"J","value":"1"})", "'set' needs \"property\""},
+           Case{R"({"v":1,"cmd":"set","component":"J","property":"p"})", "'set' needs \"value\""},
+           Case{R"({"v":1,"cmd":"set","component":"J","property":"p","value":null})", "\"value\" must be a string, a number or a boolean"},
+           Case{R"({"v":1,"cmd":"set","component":"J","property":"p","value":[1]})", "\"value\" must be a string, a number or a boolean"},
+           Case{R"({"v":1,"cmd":"connect","target":"B.i"})", "'connect' needs \"source\": a port as COMPONENT.PORT"},
+           Case{R"({"v":1,"cmd":"connect","source":"A","target":"B.i"})", "\"source\" must name a port as COMPONENT.PORT, not 'A'"},
+           Case{R"({"v":1,"cmd":"connect","source":"A.o","target":".i"})", "\"target\" must name a port as COMPONENT.PORT"},
+           Case{R"({"v":1,"cmd":"connect","source":"A.o","target":"B."})", "\"target\" must name a port as COMPONENT.PORT"},
+           Case{R"({"v":1,"cmd":"connect","source":"A.o","target":"B.i","depth":"8"})", "\"depth\" must be an integer"},
+           Case{R"({"v":1,"cmd":"connect","source":"A.o","target":"B.i","depth":1.5})", "\"depth\" must be an integer"},
+           Case{R"({"v":1,"cmd":"connect","source":"A.o","target":"B.i","depth":18446744073709551615})", "\"depth\" must be an integer"},
+           Case{R"({"v":1,"cmd":"connect","source":"A.o","target":"B.i","policy":7})", "\"policy\" must be a non-empty string"},
+           Case{R"({"v":1,"cmd":"connect","source":"A.o","target":"B.i","component":"A"})", "'connect' takes no \"component\""},
+           Case{R"({"v":1,"cmd":"disconnect","source":"A.o","target":"B.i","policy":"data"})", "'disconnect' takes no \"policy\""},
+           Case{R"({"v":1,"cmd":"list","source":"A.o"})", "'list' takes no \"source\""},
+       }) {
+    ParseError error;
+    EXPECT_FALSE(parse(c.line, error)) << c.line;
+    EXPECT_EQ(error.code, kBadRequest) << c.line;
+    EXPECT_NE(error.message.find(c.says), std::string::npos) << c.line << ": " << error.message;
+  }
+}
+
+TEST(AdminRequest, RequestLinesRoundTripEveryField) {
+  Request set;
+  set.id = "s";
+  set.command = Command::set;
+  set.component = "Joystick";
+  set.property = "max_speed";
+  set.value = "0.8";
+  Request connect;
+  connect.id = 4;
+  connect.command = Command::connect;
+  connect.source = "HW.joystick";
+  connect.target = "Spare.position";
+  connect.policy = "circular";
+  connect.depth = 8;
+  Request get;
+  get.command = Command::get;
+  get.component = "HW";
+  for (const Request& r : {set, connect, get}) {
+    const std::string line = request_line(r);
+    ASSERT_EQ(line.back(), '\n');
+    ParseError error;
+    auto back = parse_request(std::string_view(line).substr(0, line.size() - 1), error);
+    ASSERT_TRUE(back) << line << error.message;
+    EXPECT_EQ(back->id, r.id);
+    EXPECT_EQ(back->command, r.command);
+    EXPECT_EQ(back->component, r.component);
+    EXPECT_EQ(back->property, r.property);
+    EXPECT_EQ(back->value, r.value);
+    EXPECT_EQ(back->source, r.source);
+    EXPECT_EQ(back->target, r.target);
+    EXPECT_EQ(back->policy, r.policy);
+    EXPECT_EQ(back->depth, r.depth);
+  }
+  // Only the fields of the command go out.
+  EXPECT_EQ(request_line(get).find("property"), std::string::npos) << request_line(get);
+  EXPECT_EQ(request_line(connect).find("component"), std::string::npos) << request_line(connect);
 }
 
 TEST(AdminRequest, RefusesALineOverTheBound) {

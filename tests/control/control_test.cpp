@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 #include <sys/un.h>
 
+#include <cmath>
 #include <cstring>
 #include <cstdlib>
 #include <optional>
@@ -100,7 +101,9 @@ class Control : public DaemonTest {
   void SetUp() override {
     DaemonTest::SetUp();
     socket_ = dir() / "admin.sock";
-    daemon_ = daemon(kProfile, {"--admin-socket", socket_.string()});
+    // Joystick's output is traced: what the component makes of its properties.
+    daemon_ = daemon(profile(), {"--admin-socket", socket_.string(), "--trace", "Joystick.reference", "--trace-file",
+                                 (dir() / "trace.jsonl").string()});
     // The socket appears once the daemon listens; then the engine starts.
     ASSERT_TRUE(eventually([&] { return ctl({"hello"}).code == 0; }, 30s)) << daemon_->errors();
   }
@@ -152,6 +155,45 @@ class Control : public DaemonTest {
     }
     return "";
   }
+
+  // The connection's entry in the live stats (the one still connected unless `removed`).
+  Json connection(const std::string& source, const std::string& target, bool removed = false) {
+    const Ctl s = ctl({"--json", "stats"});
+    EXPECT_EQ(s.code, 0) << s.err;
+    const Json j = s.json();
+    if (j.is_discarded()) return Json();
+    for (const Json& c : j["connections"]) {
+      if (c.value("source", "") == source && c.value("target", "") == target && c.value("removed", false) == removed &&
+          !c.value("probe", false)) {
+        return c;
+      }
+    }
+    return Json();
+  }
+  std::uint64_t delivered(const std::string& source, const std::string& target, bool removed = false) {
+    return connection(source, target, removed).value("delivered", std::uint64_t{0});
+  }
+  // The speed of the latest Joystick.reference sample in the trace (NaN before there is one).
+  double traced_speed() {
+    std::ifstream in(dir() / "trace.jsonl");
+    std::string line;
+    double speed = std::nan("");
+    while (std::getline(in, line)) {
+      const Json j = Json::parse(line, nullptr, false);
+      if (!j.is_discarded() && j.value("port", "") == "Joystick.reference") speed = j["value"].value("speed_mps", speed);
+    }
+    return speed;
+  }
+  // Error code of a request sent as a raw line.
+  std::string code_of(const std::string& request) {
+    RawClient client(socket_);
+    EXPECT_TRUE(client.connected());
+    client.send_some(request + "\n");
+    const auto reply = client.reply();
+    if (!reply) return "(no reply)";
+    return reply->value("ok", false) ? "ok" : reply->value("code", "");
+  }
+  virtual fs::path profile() const { return kProfile; }
 
   fs::path socket_;
   std::unique_ptr<Child> daemon_;
@@ -222,6 +264,43 @@ TEST_F(Control, DeactivateAndActivateAComponent) {
   const Ctl on = ctl({"activate", "Control"});
   EXPECT_EQ(on.code, 0) << on.err;
   EXPECT_EQ(state_of("Control"), "active");
+}
+
+// The wheelchair fails safe (profiles/wheelchair_inproc.xml): with the Joystick component
+// stopped, its reference goes silent and, 20 ms later, the watchdog on Control.voltages -> HW
+// hands HW zero volts; once the Joystick runs again, Control's command passes again.
+TEST_F(Control, StoppedJoystickTripsTheMotorWatchdogAndItsReturnRecovers) {
+  const auto watchdog = [&]() -> Json {
+    const Ctl s = ctl({"--json", "stats"});
+    EXPECT_EQ(s.code, 0) << s.err;
+    const Json j = s.json();
+    if (!j.is_discarded()) {
+      for (const Json& c : j["connections"]) {
+        if (c.value("target", "") == "HW.voltages" && c.contains("watchdog")) return c["watchdog"];
+      }
+    }
+    ADD_FAILURE() << "no watchdog on the connection to HW.voltages in " << s.out;
+    return Json::object();
+  };
+  ASSERT_TRUE(eventually([&] { return watchdog().value("state", "") == "ok"; }, 10s)) << watchdog().dump();
+  EXPECT_EQ(watchdog().value("upstream", ""), "Joystick.reference");
+  const std::uint64_t trips = watchdog().value("trips", std::uint64_t{0});
+
+  ASSERT_EQ(ctl({"deactivate", "Joystick"}).code, 0);
+  ASSERT_TRUE(eventually([&] { return watchdog().value("state", "") == "tripped"; }, 10s)) << watchdog().dump();
+  const Json tripped = watchdog();
+  EXPECT_EQ(tripped.value("trips", std::uint64_t{0}), trips + 1) << tripped.dump();
+  // HW reads every period: the safe value, new once.
+  ASSERT_TRUE(eventually([&] { return watchdog().value("safe_values", 0) > 0; }, 10s)) << watchdog().dump();
+  EXPECT_NE(daemon_->errors().find("watchdog Control.voltages -> HW.voltages: tripped, Joystick.reference silent"),
+            std::string::npos)
+      << daemon_->errors();
+
+  ASSERT_EQ(ctl({"activate", "Joystick"}).code, 0);
+  ASSERT_TRUE(eventually([&] { return watchdog().value("state", "") == "ok"; }, 10s)) << watchdog().dump();
+  EXPECT_EQ(watchdog().value("recoveries", std::uint64_t{0}), watchdog().value("trips", std::uint64_t{0}));
+  EXPECT_NE(daemon_->errors().find("watchdog Control.voltages -> HW.voltages: recovered"), std::string::npos)
+      << daemon_->errors();
 }
 
 TEST_F(Control, UnknownComponentAndUsageErrors) {
@@ -296,6 +375,181 @@ TEST_F(Control, AClientThatNeverReadsIsCutOff) {
   EXPECT_TRUE(cut) << "the daemon kept a client that never reads";
   EXPECT_TRUE(eventually([&] { return daemon_->errors().find("bytes of replies unread; cut off") != std::string::npos; }, 10s))
       << daemon_->errors();
+  expect_still_forwarding();
+}
+
+TEST_F(Control, ASetPropertyIsUsedByTheComponent) {
+  const Ctl all = ctl({"get", "Joystick"});
+  EXPECT_EQ(all.code, 0) << all.err;
+  EXPECT_NE(all.out.find("max_speed  double  1.5    1.5"), std::string::npos) << all.out;
+  std::cout << all.out;  // the README's sample
+  const Json before = ctl({"--json", "get", "Joystick", "max_speed"}).json();
+  EXPECT_EQ(before["settable"], true);
+  ASSERT_EQ(before["properties"].size(), 1u) << before.dump();
+  EXPECT_EQ(before["properties"][0]["value"], 1.5);
+  EXPECT_EQ(before["properties"][0]["type"], "double");
+  // The scripted stick is at 60 % from 0.5 s: 0.6 * 1.5 m/s.
+  ASSERT_TRUE(eventually([&] { return std::abs(traced_speed() - 0.9) < 1e-9; }, 20s)) << traced_speed();
+
+  const Ctl set = ctl({"set", "Joystick", "max_speed", "0.5"});
+  EXPECT_EQ(set.code, 0) << set.err;
+  EXPECT_EQ(set.out, "Joystick.max_speed = 0.5 (was 1.5)\n");
+  // The component uses it: 0.6 * 0.5 m/s from its next cycle on.
+  EXPECT_TRUE(eventually([&] { return std::abs(traced_speed() - 0.3) < 1e-9; }, 20s)) << traced_speed();
+  const Ctl one = ctl({"get", "Joystick", "max_speed"});
+  EXPECT_EQ(one.code, 0) << one.err;
+  EXPECT_EQ(one.out, "0.5\n");
+  const Json after = ctl({"--json", "get", "Joystick", "max_speed"}).json();
+  EXPECT_EQ(after["properties"][0]["value"], 0.5);
+  EXPECT_EQ(after["properties"][0]["profile_value"], 1.5);
+  EXPECT_NE(daemon_->errors().find("admin: set Joystick.max_speed = 0.5 (was 1.5)"), std::string::npos);
+}
+
+TEST_F(Control, BadPropertyRequestsAreRefusedWithAReason) {
+  struct Case {
+    std::vector<std::string> args;
+    const char* says;
+  };
+  for (const Case& c : {
+           Case{{"set", "Joystick", "max_speed", "fast"}, "bad value 'fast' for property 'max_speed' of type 'double'"},
+           Case{{"set", "Joystick", "max_speed", "--", "-1"},
+                "cannot set Joystick.max_speed = -1: the component refused the value (onPropertyChanged returned bad_parameter)"},
+           Case{{"set", "Joystick", "nothing", "1"}, "Joystick has no property 'nothing' (properties: max_speed)"},
+           Case{{"get", "Joystick", "nothing"}, "Joystick has no property 'nothing' (properties: max_speed)"},
+           Case{{"set", "Control", "kp", "7"},
+                "cannot set Control.kp = 7: the component does not take changes of this property while it runs (inproc component)"},
+           Case{{"set", "Nobody", "kp", "7"}, "no component named 'Nobody' (components: Joystick, Control, HW)"},
+           Case{{"get", "Nobody"}, "no component named 'Nobody'"},
+       }) {
+    const Ctl r = ctl(c.args);
+    EXPECT_EQ(r.code, 1) << c.args[0] << " " << c.args[1] << ": " << r.err;
+    EXPECT_NE(r.err.find(c.says), std::string::npos) << r.err;
+  }
+  // Nothing changed.
+  EXPECT_EQ(ctl({"get", "Joystick", "max_speed"}).out, "1.5\n");
+  EXPECT_EQ(ctl({"set", "Joystick"}).code, 2);
+  EXPECT_EQ(ctl({"get"}).code, 2);
+  // Each refusal with its code.
+  EXPECT_EQ(code_of(R"({"v":1,"cmd":"set","component":"Joystick","property":"max_speed","value":"x"})"), "bad_value");
+  EXPECT_EQ(code_of(R"({"v":1,"cmd":"set","component":"Joystick","property":"max_speed","value":-1})"), "refused");
+  EXPECT_EQ(code_of(R"({"v":1,"cmd":"set","component":"Joystick","property":"nope","value":1})"), "unknown_property");
+  EXPECT_EQ(code_of(R"({"v":1,"cmd":"set","component":"Control","property":"kp","value":7})"), "unsupported");
+  EXPECT_EQ(code_of(R"({"v":1,"cmd":"set","component":"Nobody","property":"kp","value":7})"), "unknown_component");
+  EXPECT_EQ(code_of(R"({"v":1,"cmd":"set","component":"Joystick","property":"max_speed","value":0.7})"), "ok");
+  EXPECT_EQ(ctl({"get", "Joystick", "max_speed"}).out, "0.7\n");
+  expect_still_forwarding();
+}
+
+// The wheelchair with a spare, unconnected joystick handler: ports wired while it runs.
+class Wiring : public Control {
+ public:
+  fs::path profile() const override { return POLYPORT_SOURCE_DIR "/tests/control/wheelchair_spare.xml"; }
+};
+
+TEST_F(Wiring, AConnectionMadeAtRunTimeCarriesSamplesUntilItIsRemoved) {
+  const std::string hw = "HW.joystick";
+  const std::string spare = "Spare.position";
+  const Ctl connect = ctl({"connect", hw, spare, "--policy", "buffer", "--depth", "8"});
+  ASSERT_EQ(connect.code, 0) << connect.err;
+  EXPECT_EQ(connect.out, "connected HW.joystick -> Spare.position (buffer/8, passthrough)\n");
+  EXPECT_NE(daemon_->errors().find("admin: connected HW.joystick -> Spare.position (buffer/8, passthrough)"),
+            std::string::npos) << daemon_->errors();
+  // `list` shows it, made at run time.
+  const Json graph = ctl({"--json", "list"}).json();
+  bool listed = false;
+  for (const Json& c : graph["connections"]) {
+    if (c["source"] == hw && c["target"] == spare) {
+      listed = true;
+      EXPECT_EQ(c["origin"], "run time");
+      EXPECT_EQ(c["policy"], "buffer");
+      EXPECT_EQ(c["depth"], 8);
+    } else {
+      EXPECT_EQ(c["origin"], "profile") << c.dump();
+    }
+  }
+  EXPECT_TRUE(listed) << graph.dump();
+  const Ctl human = ctl({"list"});
+  EXPECT_NE(human.out.find("HW.joystick -> Spare.position"), std::string::npos) << human.out;
+  std::cout << human.out;  // the README's sample
+  // Samples flow: the delivered counter rises.
+  const std::uint64_t first = delivered(hw, spare);
+  EXPECT_TRUE(eventually([&] { return delivered(hw, spare) > first + 10; }, 20s)) << first;
+  EXPECT_EQ(connection(hw, spare).value("dropped", std::uint64_t{1}), 0u);
+
+  const Ctl disconnect = ctl({"disconnect", hw, spare});
+  ASSERT_EQ(disconnect.code, 0) << disconnect.err;
+  EXPECT_EQ(disconnect.out, "disconnected HW.joystick -> Spare.position\n");
+  for (const Json& c : ctl({"--json", "list"}).json()["connections"]) {
+    EXPECT_FALSE(c["source"] == hw && c["target"] == spare) << c.dump();
+  }
+  // It stops: once HW has written twice more (any write that had the connection in hand is
+  // over), its count stays while HW goes on writing to Joystick.
+  const std::uint64_t profile_before = delivered(hw, "Joystick.position");
+  ASSERT_TRUE(eventually([&] { return delivered(hw, "Joystick.position") >= profile_before + 2; }, 20s));
+  ASSERT_FALSE(connection(hw, spare, true).is_null()) << "the removed connection is not in stats";
+  const std::uint64_t stopped = delivered(hw, spare, true);
+  EXPECT_GT(stopped, first + 10);
+  const std::uint64_t profile_now = delivered(hw, "Joystick.position");
+  ASSERT_TRUE(eventually([&] { return delivered(hw, "Joystick.position") >= profile_now + 20; }, 20s));
+  EXPECT_EQ(delivered(hw, spare, true), stopped);
+  EXPECT_TRUE(connection(hw, spare).is_null()) << "a removed connection is still connected";
+
+  // Connected again (the input port's own policy this time), samples flow again.
+  const Ctl again = ctl({"connect", hw, spare});
+  ASSERT_EQ(again.code, 0) << again.err;
+  EXPECT_EQ(again.out, "connected HW.joystick -> Spare.position (data, passthrough)\n");
+  EXPECT_TRUE(eventually([&] { return delivered(hw, spare) > 10; }, 20s));
+}
+
+TEST_F(Wiring, AConnectionFromTheProfileCanBeRemovedAndMadeAgain) {
+  const std::string hw = "HW.wheel_speeds";
+  const std::string control = "Control.wheel_speeds";
+  const Ctl disconnect = ctl({"--json", "disconnect", hw, control});
+  ASSERT_EQ(disconnect.code, 0) << disconnect.err;
+  EXPECT_EQ(disconnect.json()["origin"], "profile");
+  EXPECT_EQ(ctl({"--json", "list"}).json()["connections"].size(), 3u);
+  const Ctl connect = ctl({"--json", "connect", hw, control, "--policy", "circular", "--depth", "4"});
+  ASSERT_EQ(connect.code, 0) << connect.err;
+  const Json made = connect.json();
+  EXPECT_EQ(made["origin"], "run time");
+  EXPECT_EQ(made["policy"], "circular");
+  EXPECT_EQ(made["depth"], 4);
+  EXPECT_EQ(made["conversion"], "passthrough");
+  EXPECT_TRUE(eventually([&] { return delivered(hw, control) > 10; }, 20s));
+}
+
+TEST_F(Wiring, BadConnectionsAreRefusedInTheLoadersWords) {
+  struct Case {
+    std::vector<std::string> args;
+    const char* says;
+  };
+  for (const Case& c : {
+           Case{{"connect", "HW.joystick", "Nobody.position"}, "unknown component 'Nobody'"},
+           Case{{"connect", "HW.joystick", "Spare.nothing"}, "component 'Spare' has no port 'nothing'"},
+           Case{{"connect", "Spare.position", "Spare.reference"},
+                "Spare.position is an input port; a data connection's source must be an output port"},
+           Case{{"connect", "HW.wheel_speeds", "Spare.position"}, "type mismatch"},
+           Case{{"connect", "HW.joystick", "Spare.position", "--policy", "fifo"}, "bad policy 'fifo'"},
+           Case{{"connect", "HW.joystick", "Spare.position", "--depth", "0", "--policy", "buffer"},
+                "bad depth '0': expected an integer from 1 to 4294967295"},
+           Case{{"connect", "HW.joystick", "Spare.position", "--policy", "data", "--depth", "4"},
+                "a depth needs a buffer or circular policy"},
+           Case{{"connect", "HW.joystick", "Joystick.position"}, "HW.joystick is already connected to Joystick.position"},
+           Case{{"disconnect", "HW.joystick", "Spare.position"}, "no connection HW.joystick -> Spare.position"},
+       }) {
+    const Ctl r = ctl(c.args);
+    EXPECT_EQ(r.code, 1) << c.args[1] << " " << c.args[2] << ": " << r.err;
+    EXPECT_NE(r.err.find(c.says), std::string::npos) << r.err;
+  }
+  EXPECT_EQ(ctl({"connect", "HW.joystick", "Spare"}).code, 2);
+  EXPECT_EQ(ctl({"connect", "HW.joystick"}).code, 2);
+  EXPECT_EQ(ctl({"disconnect", ".x", "Spare.position"}).code, 2);
+  EXPECT_EQ(code_of(R"({"v":1,"cmd":"connect","source":"HW.joystick","target":"Nobody.position"})"), "invalid_connection");
+  EXPECT_EQ(code_of(R"({"v":1,"cmd":"connect","source":"HW.joystick","target":"Joystick.position"})"), "refused");
+  EXPECT_EQ(code_of(R"({"v":1,"cmd":"disconnect","source":"HW.joystick","target":"Spare.position"})"), "unknown_connection");
+  EXPECT_EQ(code_of(R"({"v":1,"cmd":"connect","source":"HW","target":"Spare.position"})"), "bad_request");
+  // The graph is as the profile made it.
+  EXPECT_EQ(ctl({"--json", "list"}).json()["connections"].size(), 4u);
   expect_still_forwarding();
 }
 

@@ -1,7 +1,8 @@
 // The admin socket's request path as the daemon's control thread runs it: bytes from a
 // client, split into lines by LineBuffer (in chunks, as recv delivers them), each line
 // parsed, an error reply built for a refused one (its id echoed), request_line round-tripped
-// for an accepted one.
+// for an accepted one (every command: hello ... reset, get / set of properties, connect /
+// disconnect with policy and depth).
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -32,12 +33,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         if (reply.empty() || reply.back() != '\n') std::abort();
         continue;
       }
-      const std::string again = request_line(request->id, request->command, request->component);
+      const std::string again = request_line(*request);
       ParseError error2;
       const auto back = parse_request(std::string_view(again).substr(0, again.size() - 1), error2);
-      // A component name that is not UTF-8 is replaced on the way out; everything else
-      // survives the round trip.
-      if (!back || back->command != request->command) std::abort();
+      // A name that is not UTF-8 is replaced on the way out; everything else survives the
+      // round trip: the command, a connection's depth, and which fields are there.
+      if (!back || back->command != request->command || back->depth != request->depth) std::abort();
+      if (back->component.empty() != request->component.empty() || back->property.empty() != request->property.empty() ||
+          back->source.empty() != request->source.empty() || back->target.empty() != request->target.empty() ||
+          back->policy.empty() != request->policy.empty()) {
+        std::abort();
+      }
       if (ok_reply(request->id, nullptr).back() != '\n') std::abort();
     }
   }

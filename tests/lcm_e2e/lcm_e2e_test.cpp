@@ -139,6 +139,58 @@ TEST_F(LcmEndToEnd, LcmToLcmPassesEveryFieldThrough) {
   EXPECT_EQ((*out)["failed"], 0);
 }
 
+// Connection policies between applications built with lcm-gen, on passthrough connections
+// (the deadband decodes the LCM bytes to compare, and forwards them as they came): a deadband
+// lets every third pose through (x steps by 0.5, the threshold is 1.2), and a rate limit of 20
+// per second on a 200 per second publisher delivers the newest pose once the publisher stops.
+TEST_F(LcmEndToEnd, DeadbandAndRateLimitBetweenLcmApplications) {
+  auto sub = lcm_peer("sub", {"sub", kUrl, "POSE_OUT"});
+  auto limited = lcm_peer("limited", {"sub", kUrl, "POSE_LIMITED"});
+  auto daemon = this->daemon(app("policies_app.xml"));
+  auto pub = lcm_peer("pub", {"pub", kUrl, "POSE_IN", "5"});
+  ASSERT_TRUE(eventually([&] { return poses(*sub).size() >= 10 && poses(*limited).size() >= 3; }, 30s))
+      << "sub: " << poses(*sub).size() << ", limited: " << poses(*limited).size() << "\n" << daemon->errors();
+  pub->signal(SIGTERM);
+  ASSERT_EQ(pub->wait(10s), 0) << pub->errors();
+  long long last_published = -1;
+  for (const Json& j : pub->lines()) {
+    if (j.value("event", "") == "published") last_published = j["id"].get<long long>();
+  }
+  ASSERT_GE(last_published, 0);
+  // Newest wins: the last pose, held for its turn, goes out once its turn comes.
+  ASSERT_TRUE(eventually([&] {
+    const auto got = poses(*limited);
+    return !got.empty() && got.back()["id"].get<long long>() == last_published;
+  }, 10s)) << "limited got " << poses(*limited).size() << " poses, the last published was " << last_published;
+
+  const std::vector<Json> banded = poses(*sub);
+  for (const Json& pose : banded) expect_pose(pose);
+  for (std::size_t i = 1; i < banded.size(); ++i) {
+    EXPECT_EQ(banded[i]["id"].get<long long>() - banded[i - 1]["id"].get<long long>(), 3) << banded[i].dump();
+  }
+  const std::vector<Json> rated = poses(*limited);
+  for (const Json& pose : rated) expect_pose(pose);
+  expect_increasing(rated);
+
+  const Json stats = stop(*daemon);
+  const Json* band = connection(stats, "source.pose -> sink.pose");
+  ASSERT_NE(band, nullptr);
+  EXPECT_EQ((*band)["conversion"], "passthrough");
+  EXPECT_GT((*band)["dropped_by_reason"]["filtered"].get<long long>(), 0) << band->dump(2);
+  EXPECT_EQ((*band)["delivered"].get<long long>() + (*band)["dropped_by_reason"]["filtered"].get<long long>(),
+            (*band)["received"].get<long long>())
+      << band->dump(2);
+  EXPECT_EQ((*band)["deadbands"][0]["field"], "x") << band->dump(2);
+  const Json* rate = connection(stats, "source.pose -> limited.pose");
+  ASSERT_NE(rate, nullptr);
+  EXPECT_EQ((*rate)["rate_limit_interval_ns"], 50'000'000) << rate->dump(2);
+  const long long received = (*rate)["received"].get<long long>();
+  const long long delivered = (*rate)["delivered"].get<long long>();
+  EXPECT_EQ(delivered + (*rate)["dropped_by_reason"]["rate_limited"].get<long long>(), received) << rate->dump(2);
+  EXPECT_LT(delivered, received) << rate->dump(2);
+  EXPECT_EQ(delivered, static_cast<long long>(rated.size())) << rate->dump(2);
+}
+
 TEST_F(LcmEndToEnd, WrongAndCutShortMessagesAreCountedAndDropped) {
   if (std::string(CYCLONE_PEER).empty()) FAIL() << "cyclone_peer was not built (the Cyclone DDS model is needed)";
   setenv("CYCLONEDDS_URI", "file://" POLYPORT_SOURCE_DIR "/config/cyclonedds-loopback.xml", 1);

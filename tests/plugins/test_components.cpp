@@ -1,5 +1,7 @@
 // Small components that the tests load through the in-process model, like any plugin.
 #include <cstdint>
+#include <string_view>
+#include <thread>
 
 #include "polyport/runtime/component_api.hpp"
 
@@ -161,9 +163,43 @@ class PeerCaller final : public ComponentBase {
   std::int32_t n_ = 0;
 };
 
+// Publishes its `step` property every cycle, and whether its last onPropertyChanged ran on
+// the thread that runs its onExecute (1), another thread (0), or has not run (-1). Takes
+// changes of `step` (an integer >= 0) while it runs; refuses a negative one (bad_parameter)
+// and changes of any other property (unsupported).
+class Tunable final : public ComponentBase {
+ public:
+  ReturnCode onInitialize() override {
+    step_ = property_int("step", 1);
+    return ReturnCode::ok;
+  }
+  ReturnCode onExecute() override {
+    execute_thread_ = std::this_thread::get_id();
+    step_out_.write(step_);
+    hook_out_.write(hook_on_execute_thread_);
+    return ReturnCode::ok;
+  }
+  ReturnCode onPropertyChanged(std::string_view name, std::string_view) override {
+    hook_on_execute_thread_ = std::this_thread::get_id() == execute_thread_ ? 1 : 0;
+    if (name != "step") return ReturnCode::unsupported;
+    const std::int64_t step = property_int("step", -1);
+    if (step < 0) return ReturnCode::bad_parameter;
+    step_ = step;
+    return ReturnCode::ok;
+  }
+
+ private:
+  OutPort<std::int64_t> step_out_{*this, "step"};
+  OutPort<std::int64_t> hook_out_{*this, "hook_on_ec"};
+  std::int64_t step_ = 1;
+  std::int64_t hook_on_execute_thread_ = -1;
+  std::thread::id execute_thread_;
+};
+
 // Inside the namespace so that the class names stay unqualified ("Ticker", ...).
 POLYPORT_COMPONENTS(POLYPORT_COMPONENT(Ticker), POLYPORT_COMPONENT(Collector), POLYPORT_COMPONENT(Adder),
                     POLYPORT_COMPONENT(Caller), POLYPORT_COMPONENT(Faulty), POLYPORT_COMPONENT(WrongSize),
-                    POLYPORT_COMPONENT(PoseRelay), POLYPORT_COMPONENT(PeerAdder), POLYPORT_COMPONENT(PeerCaller))
+                    POLYPORT_COMPONENT(PoseRelay), POLYPORT_COMPONENT(PeerAdder), POLYPORT_COMPONENT(PeerCaller),
+                    POLYPORT_COMPONENT(Tunable))
 
 }  // namespace polyport::test

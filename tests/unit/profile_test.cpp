@@ -690,6 +690,109 @@ TEST_F(ProfileMappings, EveryProblemAtItsPlace) {
   }));
 }
 
+// <watchdog> on a data connection: times in nanoseconds, the upstream end, and the safe
+// value compiled for the target's type (constants only, the rest zero).
+TEST_F(ProfileMappings, ReadsWatchdogsAndCompilesTheirSafeValues) {
+  const auto app = load("watchdog/valid_app.xml");
+  ASSERT_TRUE(app.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_TRUE(diagnostics_.all().empty()) << ::testing::PrintToString(messages());
+  ASSERT_EQ(app->connections.size(), 3U);
+
+  const ConnectionSpec& temp = app->connections[0];
+  EXPECT_FALSE(temp.rate_limit_per_second.has_value());
+  EXPECT_TRUE(temp.deadbands.empty());
+  ASSERT_TRUE(temp.watchdog.has_value());
+  EXPECT_EQ(temp.watchdog->deadline_ns, 20'000'000);
+  EXPECT_EQ(temp.watchdog->max_age_ns, 0);
+  EXPECT_FALSE(temp.watchdog->upstream.has_value());
+  EXPECT_EQ(temp.watchdog->where.line, 15U);
+  ASSERT_NE(temp.watchdog->safe_program, nullptr);
+  const std::vector<std::byte> any(8, std::byte{0x55});  // the program reads nothing of it
+  std::vector<std::byte> safe(8);
+  std::uint32_t size = 0;
+  ASSERT_TRUE(temp.watchdog->safe_program->run(any.data(), 8, safe.data(), 8, size));
+  EXPECT_EQ(size, 8U);
+  EXPECT_EQ(get<double>(safe, 0), -40.0);
+
+  const ConnectionSpec& odom = app->connections[1];
+  ASSERT_TRUE(odom.watchdog.has_value());
+  EXPECT_EQ(odom.watchdog->deadline_ns, 2'500'000);
+  EXPECT_EQ(odom.watchdog->max_age_ns, 50'000'000);
+  ASSERT_TRUE(odom.watchdog->upstream.has_value());
+  EXPECT_EQ(odom.watchdog->upstream->component, "Sensor");
+  EXPECT_EQ(odom.watchdog->upstream->port, "imu");
+  ASSERT_NE(odom.watchdog->safe_program, nullptr);  // no <safe_value>: all zero
+  const std::uint32_t odometry_size = types_.find("nav::Odometry")->size;
+  std::vector<std::byte> source(odometry_size, std::byte{0x55}), zero(odometry_size + 16, std::byte{0x55});
+  ASSERT_TRUE(odom.watchdog->safe_program->run(source.data(), odometry_size, zero.data(), odometry_size + 16, size));
+  EXPECT_EQ(size, odometry_size);
+  for (std::uint32_t i = 0; i < size; ++i) ASSERT_EQ(zero[i], std::byte{0}) << "byte " << i;
+
+  // A rate limit and a deadband of two fields, on a connection without a watchdog.
+  const ConnectionSpec& accel = app->connections[2];
+  EXPECT_FALSE(accel.watchdog.has_value());
+  ASSERT_TRUE(accel.rate_limit_per_second.has_value());
+  EXPECT_EQ(*accel.rate_limit_per_second, 12.5);
+  ASSERT_EQ(accel.deadbands.size(), 2U);
+  EXPECT_EQ(accel.deadbands[0].field, "accel[2]");
+  EXPECT_EQ(accel.deadbands[0].threshold, 0.5);
+  EXPECT_EQ(accel.deadbands[1].field, "seq");
+  EXPECT_EQ(accel.deadbands[1].threshold, 0.0);
+  EXPECT_EQ(accel.deadbands[1].where.line, 32U);
+}
+
+TEST_F(ProfileMappings, EveryWatchdogProblemAtItsPlace) {
+  EXPECT_FALSE(load("watchdog/invalid_app.xml").has_value());
+  const std::string file = "watchdog/invalid_app.xml:";
+  const std::string connection = "/application_profile/port_connections/port_connection";
+  const std::string expected_ms = ": expected milliseconds, a decimal above 0 and at most 86400000";
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      // Reading.
+      file + "13:33: " + connection + "[1]/watchdog/@period: warning: unknown attribute 'period'",
+      file + "13:7: " + connection + "[1]/watchdog: missing attribute 'deadline_ms' (how long the source may be "
+      "silent)",
+      file + "13:29: " + connection + "[1]/watchdog/@max_age_ms: bad max_age_ms '-1'" + expected_ms,
+      file + "13:44: " + connection + "[1]/watchdog/kick: warning: unknown element <kick>",
+      file + "18:30: " + connection + "[2]/watchdog/@deadline_ms: bad deadline_ms '0'" + expected_ms,
+      file + "25:11: " + connection + "[3]/watchdog/safe_value/field: a safe value sets constants only: give "
+      "'value', not 'source' or a transform",
+      file + "64:31: " + connection + "[8]/rate_limit/@per_second: bad per_second '0': expected a decimal above 0 "
+      "and at most 1000000",
+      file + "68:36: " + connection + "[8]/deadband/field[3]/@threshold: bad threshold '-1': expected a number of "
+      "0 or more",
+      file + "69:9: " + connection + "[8]/deadband/field[4]: missing attribute 'name' (the number whose change "
+      "lets a sample pass)",
+      // Against the graph and the target's type.
+      file + "33:9: " + connection + "[4]/watchdog/upstream: Planner.state is a data port (input); a "
+      "watchdog's upstream must be an output data port",
+      file + "34:9: " + connection + "[4]/watchdog/event: the type polyport::WatchdogEvent is not loaded: add "
+      "config/types/watchdog_event.idl to the profile's <types>",
+      file + "36:11: " + connection + "[4]/watchdog/safe_value/field[1]: target 'speed' not found in "
+      "'nav::Odometry' (fields: speed_kmh, heading_deg, position, mode, frame, seq)",
+      file + "37:11: " + connection + "[4]/watchdog/safe_value/field[2]: bad constant 'fast' for target "
+      "'heading_deg' ('double'): expected a finite number",
+      file + "38:11: " + connection + "[4]/watchdog/safe_value/field[3]: 'PARK' is not an enumerator of "
+      "'nav::Mode' (enumerators: IDLE, DRIVE, BRAKE)",
+      file + "46:34: " + connection + "[5]/watchdog/@max_age_ms: warning: max_age_ms is shorter than "
+      "deadline_ms: every sample that arrives late enough to be within the deadline is replaced anyway",
+      file + "47:9: " + connection + "[5]/watchdog/upstream: unknown component 'Nobody'",
+      file + "48:9: " + connection + "[5]/watchdog/event: Sensor.tick is an event port (output); a watchdog's "
+      "events go to an input event or data port",
+      file + "54:7: " + connection + "[6]/watchdog: a watchdog applies only to data connections",
+      file + "59:7: " + connection + "[7]/watchdog: a watchdog applies only to data connections",
+      file + "66:9: " + connection + "[8]/deadband/field[1]: a deadband compares numbers; 'frame' of Sensor.odom "
+      "is 'string<16>'",
+      file + "67:9: " + connection + "[8]/deadband/field[2]: field 'position[2]' not found in 'nav::Odometry' of "
+      "Sensor.odom ('position' is 'double[2]')",
+      file + "70:9: " + connection + "[8]/deadband/field[5]: bad field '2x' (expected names and [index], e.g. "
+      "a.b[1].c)",
+      file + "71:9: " + connection + "[8]/deadband/field[6]: a deadband compares numbers; 'mode' of Sensor.odom "
+      "is 'nav::Mode'",
+      file + "77:7: " + connection + "[9]/rate_limit: a rate limit applies only to data connections",
+      file + "78:7: " + connection + "[9]/deadband: a deadband applies only to data connections",
+  }));
+}
+
 TEST(ProfileNames, ToString) {
   EXPECT_EQ(to_string(PortKind::data), "data");
   EXPECT_EQ(to_string(PortKind::service), "service");
@@ -1023,13 +1126,14 @@ TEST(ProfileSchema, FixturesAgainstTheXsd) {
   for (const char* valid : {"valid_app.xml", "components/Joystick.xml", "components/Control.xml",
                             "components/Motor.xml", "components/OprosAliases.xml",
                             "mapping/valid_app.xml", "mapping/components/Sensor.xml",
-                            "mapping/components/Planner.xml"}) {
+                            "mapping/components/Planner.xml", "watchdog/valid_app.xml"}) {
     EXPECT_TRUE(validates(dir / valid)) << valid;
   }
   // The schema is strict where the loader only warns, and checks what XML Schema can express.
   for (const char* invalid : {"aliases_app.xml", "invalid/bad_app_fields.xml",
                               "invalid/bad_connections.xml", "invalid/components/BadPorts.xml",
-                              "invalid/components/BadExecution.xml", "mapping/invalid_app.xml"}) {
+                              "invalid/components/BadExecution.xml", "mapping/invalid_app.xml",
+                              "watchdog/invalid_app.xml"}) {
     EXPECT_FALSE(validates(dir / invalid)) << invalid;
   }
 }

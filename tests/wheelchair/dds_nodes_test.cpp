@@ -6,13 +6,16 @@
 // polls with a deadline; the nodes' output stays in the test's folder when a case fails.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <string>
 #include <vector>
 
 #include "../support/daemon_harness.hpp"
 #include "dds/dds.h"
+#include "watchdog_event.h"
 #include "wheelchair.h"
 
 namespace polyport::test {
@@ -21,6 +24,7 @@ namespace {
 // Domains no other test uses, so that cases running beside these do not hear them.
 constexpr dds_domainid_t kDomain = 170;
 constexpr dds_domainid_t kMixedDomain = 171;
+constexpr dds_domainid_t kFailSafeDomain = 172;
 constexpr double kPi = 3.14159265358979323846;
 
 // The nodes' QoS on every topic: reliable, keep_last 1, volatile.
@@ -32,9 +36,10 @@ dds_qos_t* node_qos() {
   return qos;
 }
 
-// Every valid sample the reader holds, appended to `out`.
+// Every valid sample the reader holds, appended to `out`, with its source timestamp (the
+// writer's CLOCK_REALTIME) appended to `stamps`.
 template <class T>
-void take_all(dds_entity_t reader, std::vector<T>& out) {
+void take_all(dds_entity_t reader, std::vector<T>& out, std::vector<dds_time_t>& stamps) {
   constexpr int kBatch = 8;
   T samples[kBatch];
   void* pointers[kBatch];
@@ -43,11 +48,45 @@ void take_all(dds_entity_t reader, std::vector<T>& out) {
   for (;;) {
     const dds_return_t n = dds_take(reader, pointers, infos, kBatch, kBatch);
     for (dds_return_t i = 0; i < n; ++i) {
-      if (infos[i].valid_data) out.push_back(samples[i]);
+      if (!infos[i].valid_data) continue;
+      out.push_back(samples[i]);
+      stamps.push_back(infos[i].source_timestamp);
     }
     if (n < kBatch) return;
   }
 }
+
+// polyport's watchdog events on the topic polyport/watchdog, read with idlc's types.
+class AlarmReader {
+ public:
+  explicit AlarmReader(dds_domainid_t domain) {
+    participant_ = dds_create_participant(domain, nullptr, nullptr);
+    dds_qos_t* qos = dds_create_qos();
+    dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
+    dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 16);
+    const dds_entity_t topic =
+        dds_create_topic(participant_, &polyport_WatchdogEvent_desc, "polyport/watchdog", nullptr, nullptr);
+    reader_ = dds_create_reader(participant_, topic, qos, nullptr);
+    dds_delete_qos(qos);
+  }
+  ~AlarmReader() {
+    if (participant_ > 0) dds_delete(participant_);
+  }
+  AlarmReader(const AlarmReader&) = delete;
+  AlarmReader& operator=(const AlarmReader&) = delete;
+  bool ok() const { return participant_ > 0 && reader_ > 0; }
+  // Every event that arrived so far.
+  const std::vector<polyport_WatchdogEvent>& events() {
+    std::vector<dds_time_t> stamps;
+    take_all(reader_, events_, stamps);
+    return events_;
+  }
+
+ private:
+  dds_entity_t participant_ = 0;
+  dds_entity_t reader_ = 0;
+  std::vector<polyport_WatchdogEvent> events_;
+};
 
 // The HW node's side of the domain, played by the test.
 class HwSide {
@@ -84,16 +123,26 @@ class HwSide {
     for (;;) {
       dds_write(joystick_, &stick);
       dds_write(speeds_, &speeds);
-      take_all(reference_, references);
-      take_all(voltages_, voltages);
+      take_all(reference_, references, reference_stamps);
+      take_all(voltages_, voltages, voltage_stamps);
       if (done()) return true;
       if (std::chrono::steady_clock::now() > deadline) return false;
       std::this_thread::sleep_for(10ms);
     }
   }
 
+  // Forgets what arrived so far.
+  void forget() {
+    references.clear();
+    reference_stamps.clear();
+    voltages.clear();
+    voltage_stamps.clear();
+  }
+
   std::vector<wheelchair_Reference> references;
+  std::vector<dds_time_t> reference_stamps;
   std::vector<wheelchair_MotorVoltages> voltages;
+  std::vector<dds_time_t> voltage_stamps;
 
  private:
   dds_entity_t participant_ = 0;
@@ -179,8 +228,7 @@ void expect_steering(HwSide& hw, const std::function<std::string()>& logs) {
   // 20 deg to the right at the same stick deflection: the left (outer) wheel is driven harder.
   // The wheels now turn at about the straight-driving speed (0.9 m/s on 0.17 m wheels is
   // 5.3 rad/s): at rest, both wheels' errors would saturate both outputs at the supply voltage.
-  hw.references.clear();
-  hw.voltages.clear();
+  hw.forget();
   const auto turning_reference = [&] {
     for (const auto& r : hw.references) {
       if (near(r.direction_deg, 20.0) && near(r.speed_mps, 0.6 * 1.5)) return true;
@@ -211,7 +259,7 @@ TEST_F(WheelchairDdsNodes, JoystickAndControlSteerTheChair) {
   ASSERT_FALSE(HasFailure());
 
   // Control stops the motors when it ends: its last sample is zero voltages.
-  hw.voltages.clear();
+  hw.forget();
   control->signal(SIGTERM);
   EXPECT_TRUE(hw.drive_until(kRightTurn, kRolling, [&] {
     return !hw.voltages.empty() && hw.voltages.back().left_v == 0.0 && hw.voltages.back().right_v == 0.0;
@@ -252,6 +300,117 @@ TEST_F(WheelchairDdsNodes, ControlInPolyportdBetweenTheNodes) {
     EXPECT_GT(link.value("received", 0), 0) << link.dump();
     EXPECT_EQ(link.value("dropped", -1), 0) << link.dump();
   }
+}
+
+// The wheelchair fails safe: the joystick node is killed while the daemon runs, and the
+// motor command polyport sends to HW becomes zero within two periods (20 ms) of the last
+// reference's deadline (fail_safe_app.xml: a 20 ms watchdog on Control.voltages -> HW with
+// the joystick's reference upstream). Times are the DDS source timestamps of the joystick's
+// last reference and of polyport's first zero command (both CLOCK_REALTIME on this host), so
+// the test's own polling does not blur them. A new joystick node resumes driving.
+TEST_F(WheelchairDdsNodes, MotorsStopWhenTheJoystickIsKilledAndDriveWhenItReturns) {
+  if (std::string(POLYPORT_MIXED_MISSING) != "") GTEST_SKIP() << POLYPORT_MIXED_MISSING;
+  constexpr dds_duration_t kDeadline = DDS_MSECS(20);
+  constexpr dds_duration_t kTwoPeriods = DDS_MSECS(20);
+  HwSide hw(kFailSafeDomain);
+  AlarmReader alarms(kFailSafeDomain);
+  ASSERT_TRUE(hw.ok() && alarms.ok()) << "the test's own DDS entities could not be created";
+  const fs::path app = fill_templates(POLYPORT_TEST_DATA "/wheelchair",
+                                      {{"@DOMAIN@", std::to_string(kFailSafeDomain)}, {"@SRC@", POLYPORT_SOURCE_DIR}},
+                                      "fail_safe_app.xml");
+  auto polyportd = daemon(app);
+  auto joystick = node("joystick", kFailSafeDomain);
+  ASSERT_FALSE(HasFailure());
+  const auto logs = [&] { return "joystick:\n" + joystick->errors() + "polyportd:\n" + polyportd->errors(); };
+  const wheelchair_WheelSpeeds at_rest{};
+  const wheelchair_JoystickPosition straight{0.0, 0.6};
+  const auto driving = [&] { return !hw.voltages.empty() && hw.voltages.back().left_v > 0.0; };
+  ASSERT_TRUE(hw.drive_until(straight, at_rest, driving)) << "the chair never drove\n" << logs();
+
+  const dds_time_t killed = dds_time();
+  joystick->signal(SIGKILL);
+  EXPECT_NE(joystick->wait(10s), 0);
+  const auto stopped = [&] {
+    for (std::size_t i = 0; i < hw.voltages.size(); ++i) {
+      if (hw.voltage_stamps[i] > killed && hw.voltages[i].left_v == 0.0 && hw.voltages[i].right_v == 0.0) return true;
+    }
+    return false;
+  };
+  ASSERT_TRUE(hw.drive_until(straight, at_rest, stopped, 5s)) << "no zero command after the kill\n" << logs();
+  // The joystick's last reference: the newest one sent before it was killed.
+  ASSERT_FALSE(hw.reference_stamps.empty()) << "no reference arrived between the drive and the kill";
+  const dds_time_t last_reference = *std::max_element(hw.reference_stamps.begin(), hw.reference_stamps.end());
+  EXPECT_LE(last_reference, killed);
+  const dds_time_t deadline = last_reference + kDeadline;
+  std::size_t first_zero = 0;
+  while (!(hw.voltage_stamps[first_zero] > killed && hw.voltages[first_zero].left_v == 0.0)) ++first_zero;
+  for (std::size_t i = 0; i < first_zero; ++i) {
+    // Between the kill and then, Control's own command went through (driving straight on).
+    if (hw.voltage_stamps[i] > killed) {
+      EXPECT_GT(hw.voltages[i].left_v, 0.0) << "sample " << i;
+    }
+  }
+  const dds_time_t zero_at = hw.voltage_stamps[first_zero];
+  EXPECT_GE(zero_at, deadline - DDS_MSECS(1)) << "the motors stopped before the deadline passed";
+  EXPECT_LE(zero_at - deadline, kTwoPeriods)
+      << "zero command " << (zero_at - deadline) / 1e6 << " ms after the last reference's deadline";
+  std::printf("fail-safe: zero command %.3f ms after the last reference's deadline (%.3f ms after it)\n",
+              static_cast<double>(zero_at - deadline) / 1e6, static_cast<double>(zero_at - last_reference) / 1e6);
+
+  // The trip, as a DDS application hears of it (the newest event: a busy machine may have
+  // tripped it before, which then recovered).
+  ASSERT_TRUE(eventually([&] { return !alarms.events().empty(); })) << "no watchdog event on polyport/watchdog";
+  const polyport_WatchdogEvent tripped = alarms.events().back();
+  EXPECT_EQ(tripped.kind, polyport_WATCHDOG_TRIPPED);
+  EXPECT_GE(tripped.trips, 1U);
+  EXPECT_EQ(tripped.recoveries, tripped.trips - 1);
+  EXPECT_STREQ(tripped.connection, "Control.voltages -> Nodes.voltages");
+  EXPECT_STREQ(tripped.silent_port, "Nodes.reference");
+  EXPECT_GT(tripped.silent_ns, kDeadline);
+
+  // The joystick returns: driving resumes.
+  hw.forget();
+  auto joystick_again = node("joystick", kFailSafeDomain);
+  ASSERT_FALSE(HasFailure());
+  // Five driving commands in a row: the watchdog thread, which looks every 5 ms while tripped,
+  // has seen the recovery by then.
+  const auto driving_again = [&] {
+    if (hw.voltages.size() < 5) return false;
+    return std::all_of(hw.voltages.end() - 5, hw.voltages.end(), [](const auto& v) { return v.left_v > 0.0; });
+  };
+  EXPECT_TRUE(hw.drive_until(straight, at_rest, driving_again)) << "driving did not resume\n" << logs();
+
+  ASSERT_TRUE(eventually([&] { return alarms.events().back().kind == polyport_WATCHDOG_RECOVERED; }))
+      << "no recovery event on polyport/watchdog";
+  EXPECT_EQ(alarms.events().back().recoveries, alarms.events().back().trips);
+  EXPECT_GE(alarms.events().back().recoveries, tripped.trips);
+  EXPECT_STREQ(alarms.events().back().silent_port, "");
+
+  const Json stats = stop(*polyportd);
+  joystick_again->signal(SIGTERM);
+  EXPECT_EQ(joystick_again->wait(10s), 0) << joystick_again->errors();
+  ASSERT_TRUE(stats.contains("connections")) << stats.dump(2);
+  bool found = false;
+  for (const Json& link : stats["connections"]) {
+    if (link.value("source", "") == "watchdogs.Nodes.voltages") {
+      EXPECT_EQ(link.value("target", ""), "Alarms.events") << link.dump();
+      EXPECT_EQ(link.value("delivered", 0), alarms.events().size()) << link.dump();
+    }
+    if (!link.contains("watchdog")) continue;
+    found = true;
+    const Json& w = link["watchdog"];
+    EXPECT_EQ(link.value("target", ""), "Nodes.voltages") << link.dump();
+    EXPECT_EQ(w.value("upstream", ""), "Nodes.reference") << w.dump();
+    EXPECT_EQ(w.value("deadline_ns", 0), 20'000'000) << w.dump();
+    EXPECT_GE(w.value("trips", 0), 1) << w.dump();
+    EXPECT_EQ(w.value("recoveries", -1), w.value("trips", 0)) << w.dump();  // it ended driving
+    EXPECT_EQ(w.value("state", ""), "ok") << w.dump();
+    EXPECT_GE(w.value("safe_values", 0), 1) << w.dump();
+  }
+  EXPECT_TRUE(found) << stats.dump(2);
+  EXPECT_NE(polyportd->errors().find("watchdog Control.voltages -> Nodes.voltages: tripped, Nodes.reference silent"),
+            std::string::npos)
+      << polyportd->errors();
 }
 
 TEST_F(WheelchairDdsNodes, BadCommandLineIsRefused) {

@@ -12,6 +12,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "polyport/base/diagnostics.hpp"
@@ -51,6 +52,20 @@ struct MappingSpec {
   SourceLocation where;
   std::string element_path;
 };
+
+// A field of a flat sample found by its path ("a.b[1].c": names through structs, indices into
+// fixed arrays): its resolved type and offset, and the path as the user reads it.
+struct FieldPlace {
+  const Type* type = nullptr;
+  std::uint32_t offset = 0;
+  std::string path;
+};
+struct FieldPathResult {
+  std::optional<FieldPlace> place;  // empty: not found
+  bool bad_syntax = false;          // the text is not a path at all
+  std::string why;                  // not found: what there is instead ("fields: a, b")
+};
+FieldPathResult find_field_path(const Type& root, std::string_view text);
 
 // A problem found by MappingProgram::compile: `rule` is the rule at fault, or null when the
 // problem is the types' (a target field without a source, two fields that cannot convert).

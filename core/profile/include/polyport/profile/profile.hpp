@@ -100,6 +100,35 @@ struct ConnectionEnd {
   SourceLocation where;
 };
 
+// A data connection's fail-safe (<watchdog> inside <port_connection>): while the source
+// port (and the upstream port, if named) has written within the deadline, samples pass as
+// usual; once either has been silent longer, or a sample's source stamp is older than
+// max_age, the connection hands its target the safe value instead, counts it, and says so
+// (watchdog.hpp in the runtime).
+struct WatchdogSpec {
+  std::int64_t deadline_ns = 0;
+  std::int64_t max_age_ns = 0;          // 0: no bound on a sample's age
+  std::optional<ConnectionEnd> upstream;  // an output data port whose silence also trips it
+  // An input event or data port of type polyport::WatchdogEvent (config/types/
+  // watchdog_event.idl) that is told of each trip and recovery.
+  std::optional<ConnectionEnd> event;
+  MappingSpec safe_value;               // constants only (by_name false): the rest is zero
+  // Set by the loader: the safe value's program, from the target's type to itself (it reads
+  // nothing of its source). Null when the target's type is unknown (reported already).
+  std::shared_ptr<const MappingProgram> safe_program;
+  SourceLocation where;
+};
+
+// One field of a data connection's deadband (<deadband><field name threshold/></deadband>): a
+// sample passes only when a field of the source's type moved by more than its threshold since
+// the last sample that passed (any one of the fields suffices).
+struct DeadbandSpec {
+  std::string field;  // path in the source port's type ("speed", "pose.x", "wheels[1]")
+  double threshold = 0.0;
+  SourceLocation where;
+  std::string element_path;  // where in the profile, for diagnostics
+};
+
 struct ConnectionSpec {
   PortKind kind = PortKind::data;
   ConnectionEnd source;
@@ -107,6 +136,11 @@ struct ConnectionSpec {
   std::optional<QueuePolicy> policy;   // overrides the input port's policy
   std::optional<std::uint32_t> depth;
   std::optional<MappingSpec> mapping;  // <mapping> inside <port_connection>
+  std::optional<WatchdogSpec> watchdog;  // <watchdog> inside <port_connection>
+  // <rate_limit per_second>: at most this many samples per second reach the target; a sample
+  // that comes sooner waits for its turn and is replaced by a newer one (newest wins).
+  std::optional<double> rate_limit_per_second;
+  std::vector<DeadbandSpec> deadbands;  // the <field>s of <deadband> inside <port_connection>
   // Set by the loader when the two ends' types differ: the compiled mapping (the spec's, or
   // by name when there is none). Null when the types are the same.
   std::shared_ptr<const MappingProgram> program;

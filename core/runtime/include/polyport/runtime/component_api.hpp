@@ -71,6 +71,20 @@ class ComponentBase {
   virtual ReturnCode onError() { return ReturnCode::ok; }
   virtual ReturnCode onReset() { return ReturnCode::ok; }
   virtual ReturnCode onFinalize() { return ReturnCode::ok; }
+  // A property was changed while the application runs (polyportctl set). Called on the
+  // component's own thread: its execution context's, between two cycles (or the control
+  // thread while the context is not running), never at the same time as another hook; in
+  // any lifecycle state. The new value is in place already (property() returns it); return
+  // ok to take it, anything else to refuse it (the old value is put back and the operator
+  // told the code). The default refuses with unsupported: a component that reads its
+  // properties only in onInitialize would otherwise be told of a value it never uses.
+  // Passive components (no thread of their own) are never called: their properties are
+  // fixed while they run.
+  virtual ReturnCode onPropertyChanged(std::string_view name, std::string_view value) {
+    (void)name;
+    (void)value;
+    return ReturnCode::unsupported;
+  }
 
   const std::string& instance_name() const noexcept { return instance_name_; }
   // The period of the execution context running this component (0 when passive).
@@ -88,6 +102,13 @@ class ComponentBase {
   PortDeclaration& declare_port(PortDeclaration declaration);
   void set_instance(std::string name, std::map<std::string, std::string, std::less<>> properties,
                     double period_seconds);
+  // Puts `value` in place and calls onPropertyChanged; restores the old value unless it
+  // returns ok (a hook that throws counts as error). Only on the component's own thread
+  // (see onPropertyChanged); the in-process interceptor arranges that.
+  ReturnCode change_property(std::string_view name, std::string value) noexcept;
+  // The current values. Read on the control thread, which is the only one that starts a
+  // change and waits for it to finish.
+  const std::map<std::string, std::string, std::less<>>& properties() const noexcept { return properties_; }
 
  private:
   std::deque<PortDeclaration> declarations_;  // a deque: declarations keep their address

@@ -10,11 +10,13 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "polyport/codecs/codec.hpp"
 #include "polyport/runtime/histogram.hpp"
 #include "polyport/codecs/mapping.hpp"
 #include "polyport/runtime/port.hpp"
+#include "polyport/runtime/watchdog.hpp"
 
 namespace polyport {
 
@@ -31,6 +33,9 @@ struct ConnectionCounters {
   std::atomic<std::uint64_t> dropped_map_error{0};    // the mapping could not run on it
   std::atomic<std::uint64_t> dropped_encode_error{0}; // the target format could not hold it
   std::atomic<std::uint64_t> clamped{0};              // values clamped to range by the encoder
+  std::atomic<std::uint64_t> dropped_stale{0};        // older than the watchdog's max_age (replaced)
+  std::atomic<std::uint64_t> dropped_filtered{0};     // within every deadband: nothing moved enough
+  std::atomic<std::uint64_t> dropped_rate_limited{0}; // held for the rate limit, then replaced by a newer one
 
   std::uint64_t dropped() const noexcept {
     return dropped_queue_full.load(std::memory_order_relaxed) +
@@ -39,8 +44,19 @@ struct ConnectionCounters {
            dropped_sink_error.load(std::memory_order_relaxed) +
            dropped_decode_error.load(std::memory_order_relaxed) +
            dropped_map_error.load(std::memory_order_relaxed) +
-           dropped_encode_error.load(std::memory_order_relaxed);
+           dropped_encode_error.load(std::memory_order_relaxed) +
+           dropped_stale.load(std::memory_order_relaxed) +
+           dropped_filtered.load(std::memory_order_relaxed) +
+           dropped_rate_limited.load(std::memory_order_relaxed);
   }
+};
+
+// A deadband's number, resolved in the source type's flat layout.
+struct DeadbandField {
+  std::uint32_t offset = 0;
+  TypeKind kind = TypeKind::float64;
+  double threshold = 0.0;
+  std::string path;  // as the profile names it, for check and stats
 };
 
 class Connection {
@@ -68,6 +84,27 @@ class Connection {
   std::string name() const;  // "A.out -> B.in"
   std::string conversion() const;  // "passthrough" or the steps, e.g. "xcdr1 -> flat -> map -> lcm"
 
+  // Policies, set before the connection carries samples (control thread).
+  // The fail-safe (watchdog.hpp); null: none.
+  void set_watchdog(std::unique_ptr<ConnectionWatchdog> watchdog);
+  ConnectionWatchdog* watchdog() const noexcept { return watchdog_.get(); }
+  // At most one sample per `interval`, newest wins (allocates the held sample's slot).
+  void set_rate_limit(Nanos interval);
+  Nanos rate_interval() const noexcept { return interval_; }
+  // Samples pass only when a field moved by more than its threshold (allocates the decode
+  // scratch when the source has a wire format of its own).
+  void set_deadbands(std::vector<DeadbandField> fields);
+  const std::vector<DeadbandField>& deadbands() const noexcept { return deadbands_; }
+
+  // The timer thread's side (connection_timer.hpp). Each returns false, having done nothing,
+  // when the writer has the connection at that moment: try again shortly.
+  // Push mode: hands the safe value to the sink.
+  bool emit_safe_value(MonoTime now) noexcept;
+  // When the sample held for the rate limit may go; MonoTime{} when none is held.
+  MonoTime held_due() const noexcept;
+  // Hands the held sample over if its turn has come.
+  bool release_held(MonoTime now) noexcept;
+
   const ConnectionCounters& counters() const noexcept { return counters_; }
   // t_out - t_in, polyport's own time: entry until stored for the reader (pull) or handed to
   // the sink (push), conversion included.
@@ -88,7 +125,20 @@ class Connection {
   DataInPort& target_;
   QueuePolicy policy_;
   std::uint32_t depth_;
+  void forward(const std::byte* data, const SampleMeta& meta) noexcept;
   void hand_over(const std::byte* data, const SampleMeta& meta) noexcept;
+  void hand_over_claimed(const std::byte* data, const SampleMeta& meta) noexcept;
+  void hand_over_limited(const std::byte* data, const SampleMeta& meta) noexcept;
+  bool passes_deadbands(const std::byte* flat) noexcept;
+  Status to_sink(const std::byte* data, const SampleMeta& meta) noexcept;
+  // The writer's and the timer thread's turns at the target, when both can reach it (a
+  // watchdog on a push-mode target, a rate limit): the writer waits only while the timer
+  // thread hands over a safe value or a held sample; the timer thread never waits.
+  void enter() noexcept;
+  bool try_enter() noexcept { return !busy_.exchange(true, std::memory_order_acquire); }
+  void leave() noexcept { busy_.store(false, std::memory_order_release); }
+  void hand_over_safe(const SampleMeta& meta) noexcept;
+  PopResult take_safe(std::byte* dst, std::uint32_t capacity, SampleMeta& meta, MonoTime now) noexcept;
 
   std::unique_ptr<SampleBuffer> buffer_;
   const MappingProgram* mapping_;
@@ -100,6 +150,22 @@ class Connection {
   std::unique_ptr<std::byte[]> decoded_;
   std::unique_ptr<std::byte[]> mapped_;
   std::unique_ptr<std::byte[]> encoded_;
+  std::unique_ptr<ConnectionWatchdog> watchdog_;
+  bool reader_has_safe_ = false;  // reader thread: the safe value was taken since the last sample
+  bool guarded_ = false;          // enter()/leave() around every hand-over
+  std::atomic<bool> busy_{false};
+  // Rate limit: the last hand-over and the sample held for its turn.
+  Nanos interval_{0};
+  std::atomic<std::int64_t> last_sent_{INT64_MIN / 2};
+  std::unique_ptr<std::byte[]> held_;
+  std::uint32_t held_capacity_ = 0;
+  SampleMeta held_meta_{};
+  std::atomic<bool> has_held_{false};
+  // Deadbands (writer thread): the values of the last sample that passed, and of this one.
+  std::vector<DeadbandField> deadbands_;
+  std::vector<double> deadband_last_;
+  std::vector<double> deadband_now_;
+  bool deadband_primed_ = false;
   ConnectionCounters counters_;
   LatencyHistogram latency_;
   LatencyHistogram age_;

@@ -14,6 +14,7 @@
 #include "polyport/runtime/connection.hpp"
 #include "polyport/runtime/execution_context.hpp"
 #include "polyport/runtime/model.hpp"
+#include "polyport/runtime/connection_timer.hpp"
 #include "polyport/profile/profile.hpp"
 #include "polyport/base/result.hpp"
 #include "polyport/types/types.hpp"
@@ -43,6 +44,15 @@ class Engine {
   Result<Connection*> connect(const std::string& source_component, const std::string& source_port,
                               const std::string& target_component, const std::string& target_port,
                               std::optional<QueuePolicy> policy, std::optional<std::uint32_t> depth);
+  // Run-time wiring (control thread): a data or event connection checked as the loader
+  // checks a profile's (polyport/profile/runtime_checks.hpp: check_connection), and the
+  // removal of one by its ends ("Component.port"). A connection already there is refused.
+  // A removed connection leaves both ports' lists at once, but its memory is kept until the
+  // engine is destroyed: a writer or reader may still be inside it, and the forwarding path
+  // takes no lock that would tell when it has left. Samples still queued in it are dropped;
+  // stats() keeps listing it, marked removed, with the counts it had.
+  Result<Connection*> add_connection(const ConnectionSpec& spec);
+  Result<void> remove_connection(std::string_view source, std::string_view target);
   // Adds a pull-mode probe on an output port ("Component.port"): an internal input port fed
   // by a circular connection that a tracer reads from another thread.
   Result<DataInPort*> add_probe(const std::string& port_path, std::uint32_t depth);
@@ -59,6 +69,9 @@ class Engine {
   // Statistics: per connection counters and histograms, per component lifecycle, per
   // execution context jitter and overruns, per service port call counters.
   void stats(nlohmann::json& out) const;
+  // Where watchdog state changes are told (from the connection timer thread); set before start().
+  void set_notifier(ConnectionTimer::Notify notify) { notify_ = std::move(notify); }
+
   // One line for the periodic summary on stderr.
   std::string summary_line() const;
 
@@ -74,18 +87,25 @@ class Engine {
   Result<Connection*> connect_ports(Port& source, Port& target, std::optional<QueuePolicy> policy,
                                     std::optional<std::uint32_t> depth,
                                     std::shared_ptr<const MappingProgram> mapping = nullptr);
+  Result<void> add_watchdog(Connection& connection, const WatchdogSpec& spec);
+  Result<void> add_rate_policies(Connection& connection, const ConnectionSpec& spec);
+  Result<DataOutPort*> watchdog_events(const Connection& watched, const ConnectionEnd& end);
 
   const ModelRegistry& models_;
   TypeRegistry& types_;
   ExecutionContextPool executors_;
   std::vector<Node> nodes_;
   std::vector<std::unique_ptr<Connection>> connections_;
+  std::vector<std::unique_ptr<Connection>> removed_;  // see remove_connection
   std::vector<std::shared_ptr<const MappingProgram>> mappings_;  // used by connections_
   std::vector<std::pair<RequiredServicePort*, ProvidedServicePort*>> service_links_;
   std::string name_;
   std::unique_ptr<Component> probes_;
+  std::unique_ptr<Component> watchdog_events_;  // the watchdogs' event ports (<watchdog><event>)
   bool started_ = false;
   std::vector<std::size_t> start_order_;  // indexes into nodes_, in the order started
+  ConnectionTimer timer_;  // watchdogs and rate limits
+  ConnectionTimer::Notify notify_;
 };
 
 }  // namespace polyport

@@ -9,13 +9,15 @@
 // still applying commands and seeing stop(): the wake-up no longer depends on how late the
 // kernel wakes a sleeper, at the cost of a busy core for the tail of every period.
 //
-// Lifecycle commands for a component that belongs to a running context are executed by the
-// context's thread between cycles, so every hook of a component runs on one thread.
+// Lifecycle commands (and property changes) for a component that belongs to a running context
+// are executed by the context's thread between cycles, so every hook of a component runs on
+// one thread.
 #pragma once
 
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -62,6 +64,10 @@ class ExecutionContext {
   // Applies a lifecycle command on the context's thread (or inline when it is not running)
   // and waits for the result.
   ReturnCode command(Lifecycle& lifecycle, LifecycleCommand command);
+  // Runs `task` the same way: on the context's thread between two cycles, or inline when the
+  // context is not running; for what must happen on a component's own thread (a property
+  // change). Control path.
+  ReturnCode call(const std::function<ReturnCode()>& task);
 
   const ExecutionSettings& settings() const noexcept { return settings_; }
   const std::vector<Lifecycle*>& members() const noexcept { return members_; }
@@ -94,8 +100,7 @@ class ExecutionContext {
   std::mutex command_mutex_;
   std::condition_variable command_done_;
   std::atomic<bool> command_pending_{false};
-  Lifecycle* command_target_ = nullptr;
-  LifecycleCommand command_ = LifecycleCommand::initialize;
+  const std::function<ReturnCode()>* command_task_ = nullptr;
   ReturnCode command_result_{};
   bool command_finished_ = false;
 

@@ -49,6 +49,15 @@ class Interceptor {
   virtual InterceptorStatus status() const = 0;
   // Anything model-specific for `polyportd check` and the statistics.
   virtual void describe(nlohmann::json& out) const = 0;
+  // Run-time property changes (polyportctl set), control thread; the value is checked
+  // against the component profile already. A model that can tell its component passes the
+  // value on (in-process: onPropertyChanged on the component's own thread) and returns the
+  // component's answer; `why` says more when it is not ok. The default: unsupported, for
+  // models whose components polyport cannot reach (a DDS or LCM application).
+  virtual ReturnCode set_property(std::string_view name, const std::string& value, std::string& why);
+  // The component's current property values, when the model holds them (in-process); null
+  // otherwise (the profile's values are what is known).
+  virtual const std::map<std::string, std::string, std::less<>>* properties() const { return nullptr; }
 };
 
 // The lifecycle commands of a foreign component that has none of its own (a DDS or LCM

@@ -102,6 +102,8 @@ class DataOutPort final : public Port {
   std::uint32_t max_sample_bytes() const noexcept { return max_sample_bytes_; }
   std::uint64_t written() const noexcept { return written_.load(std::memory_order_relaxed); }
   std::uint64_t unconnected_writes() const noexcept { return unconnected_.load(std::memory_order_relaxed); }
+  // When write() was last called (connected or not); 0 before the first. Watchdogs read it.
+  MonoTime last_write() const noexcept { return MonoTime{last_write_.load(std::memory_order_relaxed)}; }
   ConnectionSet& connections() noexcept { return connections_; }
 
  private:
@@ -109,6 +111,7 @@ class DataOutPort final : public Port {
   ConnectionSet connections_;
   std::atomic<std::uint64_t> written_{0};
   std::atomic<std::uint64_t> unconnected_{0};
+  std::atomic<std::int64_t> last_write_{0};
 };
 
 // Where a push-mode input port delivers, on the writer's thread.

@@ -1,0 +1,193 @@
+#include "control_requests.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <charconv>
+#include <cstdlib>
+
+#include "polyport/profile/profile_text.hpp"
+#include "polyport/profile/runtime_checks.hpp"
+#include "polyport/runtime/component_api.hpp"
+#include "polyport/runtime/connection.hpp"
+#include "polyport/types/types.hpp"
+
+namespace polyport::daemon {
+namespace {
+
+std::string names_of_properties(const ComponentProfile& profile) {
+  std::string names;
+  for (const PropertySpec& p : profile.properties) names += (names.empty() ? "" : ", ") + p.name;
+  return names.empty() ? "it has none" : "properties: " + names;
+}
+
+// The problems of a check, one sentence each, without the location in the one-line document
+// the check was run on (the operator wrote a command line, not that document).
+std::string problems_of(const Diagnostics& diagnostics) {
+  std::string out;
+  for (const Diagnostic& d : diagnostics.all()) {
+    if (d.severity != Severity::error) continue;
+    out += (out.empty() ? "" : "; ") + d.message;
+  }
+  return out;
+}
+
+nlohmann::json describe(const Connection& c, std::string_view origin) {
+  nlohmann::json j{{"source", c.source().full_name()},
+                   {"target", c.target().full_name()},
+                   {"kind", to_string(c.source().kind())},
+                   {"type", c.source().type() ? c.source().type()->name : std::string()},
+                   {"policy", to_string(c.policy())},
+                   {"mode", c.push_mode() ? "push" : "pull"},
+                   {"conversion", c.conversion()},
+                   {"origin", origin}};
+  if (c.policy() != QueuePolicy::data) j["depth"] = c.depth();
+  return j;
+}
+
+}  // namespace
+
+nlohmann::json typed_value(const PropertySpec& property, const std::string& value) {
+  const std::string& type = property.type;
+  if (type == "int" || type == "long" || type == "short") {
+    if (auto v = text::parse_integer<std::int64_t>(value)) return *v;
+  } else if (type == "double" || type == "float") {
+    char* end = nullptr;
+    const double v = std::strtod(value.c_str(), &end);
+    if (end != value.c_str() && *end == '\0') return v;
+  } else if (type == "bool" || type == "boolean") {
+    if (auto v = text::lookup(text::kBooleans, value)) return *v;
+  }
+  return value;
+}
+
+const Subcomponent* ControlRequests::component(const admin::Request& request, std::string& refusal) const {
+  const Subcomponent* found = application_.find_component(request.component);
+  if (found != nullptr && engine_.find_interceptor(request.component) != nullptr) return found;
+  std::string names;
+  for (const Subcomponent& c : application_.components) names += (names.empty() ? "" : ", ") + c.name;
+  refusal = admin::error_reply(request.id, admin::kUnknownComponent,
+                               "no component named '" + request.component + "' (components: " + names + ")");
+  return nullptr;
+}
+
+std::string ControlRequests::get(const admin::Request& request) const {
+  std::string refusal;
+  const Subcomponent* sub = component(request, refusal);
+  if (sub == nullptr) return refusal;
+  const ComponentProfile& profile = sub->profile;
+  if (!request.property.empty() && profile.find_property(request.property) == nullptr) {
+    return admin::error_reply(request.id, admin::kUnknownProperty,
+                              request.component + " has no property '" + request.property + "' (" +
+                                  names_of_properties(profile) + ")");
+  }
+  const Interceptor* interceptor = engine_.find_interceptor(request.component);
+  const auto* current = interceptor->properties();
+  nlohmann::json properties = nlohmann::json::array();
+  for (const PropertySpec& p : profile.properties) {
+    if (!request.property.empty() && p.name != request.property) continue;
+    std::string value = p.value;
+    if (current != nullptr) {
+      if (auto it = current->find(p.name); it != current->end()) value = it->second;
+    }
+    properties.push_back({{"name", p.name},
+                          {"type", p.type.empty() ? "string" : p.type},
+                          {"value", typed_value(p, value)},
+                          {"profile_value", typed_value(p, p.value)}});
+  }
+  // Whether `set` can reach the component at all (each property may still be refused by it).
+  const bool settable = current != nullptr && profile.execution.type != ExecutionType::passive;
+  return admin::ok_reply(request.id, {{"component", request.component},
+                                      {"model", profile.model},
+                                      {"settable", settable},
+                                      {"properties", std::move(properties)}});
+}
+
+std::string ControlRequests::set(const admin::Request& request) {
+  std::string refusal;
+  const Subcomponent* sub = component(request, refusal);
+  if (sub == nullptr) return refusal;
+  const PropertySpec* property = sub->profile.find_property(request.property);
+  if (property == nullptr) {
+    return admin::error_reply(request.id, admin::kUnknownProperty,
+                              request.component + " has no property '" + request.property + "' (" +
+                                  names_of_properties(sub->profile) + ")");
+  }
+  if (std::string problem = property_value_problem(*property, request.value); !problem.empty()) {
+    return admin::error_reply(request.id, admin::kBadValue, problem);
+  }
+  Interceptor* interceptor = engine_.find_interceptor(request.component);
+  std::string previous = property->value;
+  if (const auto* current = interceptor->properties()) {
+    if (auto it = current->find(property->name); it != current->end()) previous = it->second;
+  }
+  std::string why;
+  const ReturnCode code = interceptor->set_property(property->name, request.value, why);
+  const std::string what = request.component + "." + property->name + " = " + request.value;
+  if (code == ReturnCode::unsupported) {
+    return admin::error_reply(request.id, admin::kUnsupported,
+                              "cannot set " + what + ": " + why + " (" + sub->profile.model + " component)");
+  }
+  if (code != ReturnCode::ok) {
+    return admin::error_reply(request.id, admin::kRefused, "cannot set " + what + ": " + why);
+  }
+  spdlog::info("admin: set {} (was {})", what, previous);
+  return admin::ok_reply(request.id, {{"component", request.component},
+                                      {"property", property->name},
+                                      {"type", property->type.empty() ? "string" : property->type},
+                                      {"value", typed_value(*property, request.value)},
+                                      {"previous", typed_value(*property, previous)}});
+}
+
+std::string ControlRequests::connect(const admin::Request& request) {
+  ConnectionRequest wanted{request.source, request.target, request.policy,
+                           request.depth ? std::to_string(*request.depth) : std::string()};
+  Diagnostics diagnostics;
+  const std::optional<ConnectionSpec> spec = check_connection(application_, types_, wanted, diagnostics);
+  if (!spec) {
+    return admin::error_reply(request.id, admin::kInvalidConnection,
+                              request.source + " -> " + request.target + ": " + problems_of(diagnostics));
+  }
+  Result<Connection*> added = engine_.add_connection(*spec);
+  if (!added) {
+    return admin::error_reply(request.id, admin::kRefused,
+                              request.source + " -> " + request.target + ": " + added.error().message);
+  }
+  added_.emplace(request.source, request.target);
+  const Connection* connection = added.value();
+  if (connection == nullptr) {  // a service connection: the engine refuses those once running
+    return admin::ok_reply(request.id, {{"source", request.source}, {"target", request.target}, {"kind", "service"}});
+  }
+  spdlog::info("admin: connected {} ({}{}, {})", connection->name(), to_string(connection->policy()),
+               connection->policy() != QueuePolicy::data ? "/" + std::to_string(connection->depth()) : "",
+               connection->conversion());
+  return admin::ok_reply(request.id, describe(*connection, "run time"));
+}
+
+std::string ControlRequests::disconnect(const admin::Request& request) {
+  nlohmann::json graph;
+  engine_.describe(graph);
+  bool known = false;  // data, event and service connections alike
+  for (const auto& c : graph["connections"]) {
+    known = known || (c.value("source", "") == request.source && c.value("target", "") == request.target);
+  }
+  const bool runtime = added_.count({request.source, request.target}) != 0;
+  Result<void> removed = engine_.remove_connection(request.source, request.target);
+  if (!removed) {
+    return admin::error_reply(request.id, known ? admin::kRefused : admin::kUnknownConnection,
+                              removed.error().message);
+  }
+  added_.erase({request.source, request.target});
+  spdlog::info("admin: disconnected {} -> {}", request.source, request.target);
+  return admin::ok_reply(request.id, {{"source", request.source},
+                                      {"target", request.target},
+                                      {"origin", runtime ? "run time" : "profile"}});
+}
+
+void ControlRequests::annotate(nlohmann::json& graph) const {
+  for (auto& c : graph["connections"]) {
+    const bool runtime = added_.count({c.value("source", ""), c.value("target", "")}) != 0;
+    c["origin"] = runtime ? "run time" : "profile";
+  }
+}
+
+}  // namespace polyport::daemon

@@ -1,0 +1,50 @@
+// The admin requests that change a running application: get / set of component properties
+// and connect / disconnect of ports (docs/CONTROL.md). Each runs on the engine's control
+// thread (polyportd's main thread, through AdminServer::serve), checks what it is asked
+// against the loaded profile with the loader's own checks (runtime_checks.hpp), and only then
+// touches the engine. The forwarding path is never called from here and takes no lock of
+// ours: a property change is handed to the component's execution context, a connection is
+// published by swapping the ports' connection lists.
+#pragma once
+
+#include <set>
+#include <string>
+#include <utility>
+
+#include <nlohmann/json.hpp>
+
+#include "admin_protocol.hpp"
+#include "polyport/profile/profile.hpp"
+#include "polyport/runtime/engine.hpp"
+
+namespace polyport::daemon {
+
+class ControlRequests {
+ public:
+  // `application`: every loaded profile's components and connections, as the engine was
+  // built from them.
+  ControlRequests(Engine& engine, TypeRegistry& types, ApplicationProfile application)
+      : engine_(engine), types_(types), application_(std::move(application)) {}
+
+  // Reply lines (admin::ok_reply / admin::error_reply).
+  std::string get(const admin::Request& request) const;
+  std::string set(const admin::Request& request);
+  std::string connect(const admin::Request& request);
+  std::string disconnect(const admin::Request& request);
+  // Marks each connection of `list`'s graph with its origin: "profile" or "run time".
+  void annotate(nlohmann::json& graph) const;
+
+ private:
+  // The component named by the request, or an unknown_component reply in `refusal`.
+  const Subcomponent* component(const admin::Request& request, std::string& refusal) const;
+
+  Engine& engine_;
+  TypeRegistry& types_;
+  ApplicationProfile application_;
+  std::set<std::pair<std::string, std::string>> added_;  // run-time connections (source, target)
+};
+
+// A property's value as JSON of its declared type (number, integer, boolean; else string).
+nlohmann::json typed_value(const PropertySpec& property, const std::string& value);
+
+}  // namespace polyport::daemon
