@@ -479,7 +479,8 @@ TEST_F(Wiring, AConnectionMadeAtRunTimeCarriesSamplesUntilItIsRemoved) {
   const Ctl disconnect = ctl({"disconnect", hw, spare});
   ASSERT_EQ(disconnect.code, 0) << disconnect.err;
   EXPECT_EQ(disconnect.out, "disconnected HW.joystick -> Spare.position\n");
-  for (const Json& c : ctl({"--json", "list"}).json()["connections"]) {
+  Json remaining = ctl({"--json", "list"}).json();  // the loop's range must outlive the loop
+  for (const Json& c : remaining["connections"]) {
     EXPECT_FALSE(c["source"] == hw && c["target"] == spare) << c.dump();
   }
   // It stops: once HW has written twice more (any write that had the connection in hand is

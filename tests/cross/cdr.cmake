@@ -57,6 +57,7 @@ if(TARGET fastcdr AND TARGET fastrtps AND POLYPORT_FASTDDSGEN)
   target_include_directories(polyport_cdr_fastdds_peer PUBLIC ${cdr_cross_source_dir})
   target_compile_definitions(polyport_cdr_fastdds_peer PUBLIC POLYPORT_CDR_FASTDDS=1)
   target_link_libraries(polyport_cdr_fastdds_peer PUBLIC fastrtps fastcdr)
+  polyport_sdk_generated_code(polyport_cdr_fastdds_peer)  # Fast CDR templates (tests/sanitizers/ubsan.supp)
   list(APPEND cdr_cross_peers polyport_cdr_fastdds_peer)
 else()
   message(STATUS "CDR cross tests: Fast DDS left out (fastcdr/fastrtps packages or fastddsgen not "

@@ -128,13 +128,15 @@ void on_add_request(const lcm_recv_buf_t*, const char*, const peer_add_request_t
 
 int serve_calc(lcm_t* lcm, const char* request_channel, const char* reply_channel, int count, bool silent) {
   Server server{lcm, reply_channel, silent, 0};
-  peer_add_request_t_subscribe(lcm, request_channel, on_add_request, &server);
+  peer_add_request_t_subscription_t* subscription =
+      peer_add_request_t_subscribe(lcm, request_channel, on_add_request, &server);
   const int fd = lcm_get_fileno(lcm);
   line(R"({"event":"serving"})");
   while (!g_stop && (count == 0 || server.served < count)) {
     pollfd p{fd, POLLIN, 0};
     if (poll(&p, 1, 100) > 0) lcm_handle(lcm);
   }
+  peer_add_request_t_unsubscribe(lcm, subscription);
   return 0;
 }
 
@@ -161,7 +163,12 @@ int call_calc(lcm_t* lcm, const std::string& request_channel, const char* reply_
               bool bad) {
   Caller caller;
   caller.client_id = (static_cast<std::int64_t>(getpid()) << 20) | 0x5a5a;
-  peer_add_reply_t_subscribe(lcm, reply_channel, on_add_reply, &caller);
+  // lcm-gen's subscription is freed by its unsubscribe only, not by lcm_destroy.
+  struct Unsubscribe {
+    lcm_t* lcm;
+    peer_add_reply_t_subscription_t* subscription;
+    ~Unsubscribe() { peer_add_reply_t_unsubscribe(lcm, subscription); }
+  } unsubscribe{lcm, peer_add_reply_t_subscribe(lcm, reply_channel, on_add_reply, &caller)};
   const int fd = lcm_get_fileno(lcm);
   std::vector<std::uint8_t> wire;
   for (int i = 1; i <= count && !g_stop; ++i) {
@@ -216,11 +223,13 @@ int main(int argc, char** argv) {
   }
   int rc = 0;
   if (mode == "sub") {
-    peer_pose_t_subscribe(lcm, channel, on_pose, nullptr);
+    peer_pose_t_subscription_t* subscription = peer_pose_t_subscribe(lcm, channel, on_pose, nullptr);
     rc = serve(lcm);
+    peer_pose_t_unsubscribe(lcm, subscription);
   } else if (mode == "blob-sub") {
-    peer_blob_t_subscribe(lcm, channel, on_blob, nullptr);
+    peer_blob_t_subscription_t* subscription = peer_blob_t_subscribe(lcm, channel, on_blob, nullptr);
     rc = serve(lcm);
+    peer_blob_t_unsubscribe(lcm, subscription);
   } else if (mode == "pub" || mode == "bad") {
     const int period = argc > 4 ? std::atoi(argv[4]) : 20;
     int i = argc > 5 ? std::atoi(argv[5]) : 0;
@@ -243,7 +252,8 @@ int main(int argc, char** argv) {
     }
   } else if (mode == "teleop") {
     // argv[3] is the speed here: the channels are the shipped profile's.
-    wheelchair_lcm_wheel_speeds_t_subscribe(lcm, "WHEELCHAIR_WHEEL_SPEEDS", on_wheel_speeds, nullptr);
+    wheelchair_lcm_wheel_speeds_t_subscription_t* subscription =
+        wheelchair_lcm_wheel_speeds_t_subscribe(lcm, "WHEELCHAIR_WHEEL_SPEEDS", on_wheel_speeds, nullptr);
     const int fd = lcm_get_fileno(lcm);
     const wheelchair_lcm_reference_t reference{0.0, std::atof(argv[3])};
     while (!g_stop) {
@@ -254,6 +264,7 @@ int main(int argc, char** argv) {
         if (poll(&p, 1, 2) > 0) lcm_handle(lcm);
       }
     }
+    wheelchair_lcm_wheel_speeds_t_unsubscribe(lcm, subscription);
   } else if ((mode == "serve" || mode == "call") && argc < 5) {
     std::fprintf(stderr, "lcm_peer %s: URL REQUEST_CHANNEL REPLY_CHANNEL [...]\n", mode.c_str());
     rc = 2;

@@ -227,9 +227,14 @@ TEST_P(FastProducer, EverySampleIsReadOrCountedAsDropped) {
       EXPECT_GT(k.dropped_queue_full.load(), 0u);
       break;
     case QueuePolicy::circular:
-      EXPECT_EQ(last, kCount);  // the newest samples survive
-      EXPECT_EQ(reads + k.dropped_oldest.load(), kCount);
+      // The oldest samples make room, except when the reader is copying the oldest out for
+      // longer than the writer waits: that push drops its own sample, counted as queue full
+      // (sample_buffer.cpp). Then the very last sample may be the one dropped.
+      EXPECT_EQ(reads + k.dropped_oldest.load() + k.dropped_queue_full.load(), kCount);
       EXPECT_GT(k.dropped_oldest.load(), 0u);
+      if (k.dropped_queue_full.load() == 0) {
+        EXPECT_EQ(last, kCount);  // the newest samples survive
+      }
       break;
   }
 }
