@@ -190,4 +190,32 @@ void ControlRequests::annotate(nlohmann::json& graph) const {
   }
 }
 
+Result<nlohmann::json> ControlRequests::reload(const ProfileReader& read, std::vector<std::string>& warnings) {
+  Result<nlohmann::json> done = daemon::reload(engine_, types_, application_, read, added_, warnings);
+  if (!done) return done;
+  // Run-time connections a reload took away (a component of theirs left, or the profiles now
+  // make them) are run-time connections no more.
+  std::erase_if(added_, [&](const auto& ends) {
+    return std::none_of(engine_.connections().begin(), engine_.connections().end(), [&](const auto& c) {
+      return c->source().full_name() == ends.first && c->target().full_name() == ends.second;
+    });
+  });
+  for (const ConnectionSpec& c : application_.connections) {
+    added_.erase({c.source.component + "." + c.source.port, c.target.component + "." + c.target.port});
+  }
+  return done;
+}
+
+std::string ControlRequests::reload(const admin::Request& request, const ProfileReader& read) {
+  std::vector<std::string> warnings;
+  Result<nlohmann::json> done = reload(read, warnings);
+  for (const std::string& warning : warnings) spdlog::warn("reload: {}", warning);
+  if (!done) {
+    spdlog::error("reload refused, the running graph is unchanged: {}", done.error().message);
+    return admin::error_reply(request.id, admin::kRefused, done.error().message);
+  }
+  spdlog::info("reload: {}", done.value().dump());
+  return admin::ok_reply(request.id, done.value());
+}
+
 }  // namespace polyport::daemon

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "admin_protocol.hpp"
+#include "reload.hpp"
 #include "polyport/profile/profile.hpp"
 #include "polyport/runtime/engine.hpp"
 
@@ -31,6 +32,10 @@ class ControlRequests {
   std::string set(const admin::Request& request);
   std::string connect(const admin::Request& request);
   std::string disconnect(const admin::Request& request);
+  // Re-reads the profiles and applies what changed (reload.hpp), for SIGHUP and `reload`. The
+  // diff as JSON, or why the running graph was kept.
+  Result<nlohmann::json> reload(const ProfileReader& read, std::vector<std::string>& warnings);
+  std::string reload(const admin::Request& request, const ProfileReader& read);
   // Marks each connection of `list`'s graph with its origin: "profile" or "run time".
   void annotate(nlohmann::json& graph) const;
 

@@ -53,6 +53,28 @@ struct Failure {
 };
 
 // The one daemon socket in the default folder.
+// What a reload changed, one line per kind of change (reload.hpp: GraphDiff::to_json).
+void print_reload(const json& result, std::ostream& out) {
+  if (result.value("unchanged", false)) {
+    out << "reloaded: nothing changed\n";
+    return;
+  }
+  out << "reloaded:\n";
+  for (const char* part : {"components", "connections"}) {
+    for (const char* how : {"added", "removed", "changed"}) {
+      const json names = result.value(part, json::object()).value(how, json::array());
+      if (names.empty()) continue;
+      std::string line = std::string("  ") + part + " " + how + ":";
+      line.resize(std::max<std::size_t>(line.size(), 24), ' ');
+      bool first = true;
+      for (const auto& name : names) {
+        out << (first ? line : std::string(line.size(), ' ')) << " " << name.get<std::string>() << "\n";
+        first = false;
+      }
+    }
+  }
+}
+
 std::string find_socket() {
   const std::string dir = polyport::admin::default_socket_dir();
   std::vector<std::string> found;
@@ -261,6 +283,8 @@ int main(int argc, char** argv) {
   disconnect->add_option("source", request.source, "output port, COMPONENT.PORT")->required()->check(port_path);
   disconnect->add_option("target", request.target, "input port, COMPONENT.PORT")->required()->check(port_path);
   commands.emplace_back(disconnect, Command::disconnect);
+  commands.emplace_back(app.add_subcommand("reload", "re-read the daemon's profiles and apply what changed (docs/CONTROL.md)"),
+                        Command::reload);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -317,6 +341,9 @@ int main(int argc, char** argv) {
       }
       case Command::disconnect:
         std::cout << "disconnected " << text(result, "source") << " -> " << text(result, "target") << "\n";
+        break;
+      case Command::reload:
+        print_reload(result, std::cout);
         break;
       default:
         std::cout << text(result, "component") << ": " << text(result, "state") << "\n";

@@ -77,14 +77,13 @@ std::vector<std::filesystem::path> library_path(const Options& options) {
   return out;
 }
 
-// Loads every profile and builds the engine; prints every problem. False on any error.
-// `application`, when given, receives every profile's components and connections (what the
-// admin socket checks run-time changes against).
-bool load(const Options& options, const ModelRegistry& models, Engine& engine, TypeRegistry& types,
-          ApplicationProfile* application = nullptr) {
-  Diagnostics diagnostics;
+// Reads every profile into `types` as one application (components and connections of all
+// of them); problems go to `diagnostics`. Nullopt when a profile could not be read.
+std::optional<ApplicationProfile> read_profiles(const Options& options, const ModelRegistry& models, TypeRegistry& types,
+                                                Diagnostics& diagnostics) {
   LoadOptions load_options{library_path(options)};
   load_options.models = &models;
+  ApplicationProfile application;
   bool ok = true;
   for (const std::string& file : options.profiles) {
     std::optional<ApplicationProfile> profile = load_application_profile(file, types, load_options, diagnostics);
@@ -92,21 +91,32 @@ bool load(const Options& options, const ModelRegistry& models, Engine& engine, T
       ok = false;
       continue;
     }
-    ok = engine.build(*profile, diagnostics) && ok;
-    if (application != nullptr) {
-      if (application->name.empty()) {
-        application->name = profile->name;
-        application->file = profile->file;
-      }
-      for (Subcomponent& c : profile->components) application->components.push_back(std::move(c));
-      for (ConnectionSpec& c : profile->connections) application->connections.push_back(std::move(c));
+    if (application.name.empty()) {
+      application.name = profile->name;
+      application.file = profile->file;
+      application.description = profile->description;
     }
+    for (Subcomponent& c : profile->components) application.components.push_back(std::move(c));
+    for (ConnectionSpec& c : profile->connections) application.connections.push_back(std::move(c));
   }
+  if (!ok) return std::nullopt;
+  return application;
+}
+
+// Loads every profile and builds the engine; prints every problem. False on any error.
+// `application`, when given, receives every profile's components and connections (what the
+// admin socket checks run-time changes against, and what a reload compares with).
+bool load(const Options& options, const ModelRegistry& models, Engine& engine, TypeRegistry& types,
+          ApplicationProfile* application = nullptr) {
+  Diagnostics diagnostics;
+  std::optional<ApplicationProfile> profiles = read_profiles(options, models, types, diagnostics);
+  const bool ok = profiles && engine.build(*profiles, diagnostics);
   diagnostics.print(std::cerr);
   if (!ok || diagnostics.has_errors()) {
     std::cerr << diagnostics.error_count() << " problem(s) found\n";
     return false;
   }
+  if (application != nullptr) *application = std::move(*profiles);
   return true;
 }
 
@@ -313,7 +323,8 @@ nlohmann::json collect_stats(const Engine& engine, const Options& options, std::
 
 // Answers an admin request; runs on the engine's control thread (this main thread).
 std::string answer(const admin::Request& request, Engine& engine, daemon::ControlRequests& control,
-                   const Options& options, std::chrono::steady_clock::time_point t_start) {
+                   const daemon::ProfileReader& read, const Options& options,
+                   std::chrono::steady_clock::time_point t_start) {
   using admin::Command;
   switch (request.command) {
     case Command::hello: {
@@ -344,6 +355,8 @@ std::string answer(const admin::Request& request, Engine& engine, daemon::Contro
       return control.connect(request);
     case Command::disconnect:
       return control.disconnect(request);
+    case Command::reload:
+      return control.reload(request, read);
     case Command::stats:
       return admin::ok_reply(request.id, collect_stats(engine, options, t_start));
     case Command::activate:
@@ -394,6 +407,9 @@ int run_daemon(const Options& options) {
     return kExitProfile;
   }
   daemon::ControlRequests control(engine, types, std::move(application));
+  const daemon::ProfileReader read = [&](TypeRegistry& into, Diagnostics& diagnostics) {
+    return read_profiles(options, models, into, diagnostics);
+  };
 
   daemon::Tracer tracer;
   if (!options.trace_ports.empty()) {
@@ -473,11 +489,19 @@ int run_daemon(const Options& options) {
       if (signal == SIGINT || signal == SIGTERM) {
         stop_signal = signal;
       } else if (signal == SIGHUP) {
-        spdlog::warn("SIGHUP: reloading profiles is not supported yet; the running graph is unchanged");
+        spdlog::info("SIGHUP: reloading {}", options.profiles.front());
+        std::vector<std::string> reload_warnings;
+        Result<nlohmann::json> reloaded = control.reload(read, reload_warnings);
+        for (const std::string& warning : reload_warnings) spdlog::warn("reload: {}", warning);
+        if (reloaded) {
+          spdlog::info("reload: {}", reloaded.value().dump());
+        } else {
+          spdlog::error("reload refused, the running graph is unchanged: {}", reloaded.error().message);
+        }
       }
     }
     if (admin.request_fd() >= 0 && (fds[1].revents & POLLIN)) {
-      admin.serve([&](const admin::Request& request) { return answer(request, engine, control, options, t_start); });
+      admin.serve([&](const admin::Request& request) { return answer(request, engine, control, read, options, t_start); });
     }
     if (tracer.active()) tracer.drain();
     const auto now = Clock::now();

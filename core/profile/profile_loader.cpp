@@ -54,6 +54,8 @@ std::optional<ApplicationProfile> Loader::run(const fs::path& requested) {
     const auto it = components_.find(subcomponent.reference);
     if (it != components_.end() && it->second->readable) {
       subcomponent.profile = it->second->profile;
+      subcomponent.definition += file_text(subcomponent.reference);
+      for (const fs::path& type_file : subcomponent.profile.type_files) subcomponent.definition += file_text(type_file);
     }
   }
   check_connections(report, app, connection_nodes);
@@ -124,6 +126,7 @@ void Loader::read_subcomponents(const Reporter& report, pugi::xml_node element, 
     const Children fields = scan(report, node, kSubcomponentRules);
     Subcomponent subcomponent;
     subcomponent.where = report.xml().at(node);
+    subcomponent.definition = element_text(node);
     const auto name = required_text(report, node, fields, "name", "name");
     const auto reference = required_text(report, node, fields, "reference", "reference");
     bool usable = name.has_value();
@@ -155,6 +158,7 @@ void Loader::read_connections(const Reporter& report, pugi::xml_node element, Ap
   for (const pugi::xml_node node : children.all("port_connection")) {
     ConnectionSpec connection;
     connection.where = report.xml().at(node);
+    connection.definition = element_text(node);
     // OPRoS: a port_connection without port_type is a "method" (service) connection.
     connection.kind = PortKind::service;
     if (const auto port_type = node.attribute("port_type")) {

@@ -27,6 +27,22 @@ namespace polyport::detail {
 namespace fs = std::filesystem;
 using text::in_quotes;
 
+// An element as text, attributes and children, without the whitespace between elements: what
+// a reload compares to tell whether a profile changed it.
+inline std::string element_text(pugi::xml_node node) {
+  std::ostringstream out;
+  node.print(out, "", pugi::format_raw);
+  return std::move(out).str();
+}
+
+// A file's bytes; empty when it cannot be read (the loader reports that on its own).
+inline std::string file_text(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream bytes;
+  if (in) bytes << in.rdbuf();
+  return std::move(bytes).str();
+}
+
 // ---------------------------------------------------------------------------------------
 // One XML file: its bytes, the pugixml tree and a table of line starts, so every node and
 // attribute can be reported as line:col in the file the user edits.

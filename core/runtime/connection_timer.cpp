@@ -48,6 +48,14 @@ void ConnectionTimer::stop() {
   thread_.join();
 }
 
+void ConnectionTimer::add(Connection& connection) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    connections_.push_back(&connection);
+  }
+  wake_.notify_one();
+}
+
 void ConnectionTimer::remove(const Connection& connection) {
   // The thread holds the mutex while it checks, and lets go of it only to sleep.
   std::lock_guard<std::mutex> lock(mutex_);

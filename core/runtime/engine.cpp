@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdio>
 #include <map>
+#include <sstream>
 #include <nlohmann/json.hpp>
 
 #include "polyport/runtime/component_api.hpp"
@@ -67,30 +68,32 @@ bool Engine::build(const ApplicationProfile& profile, Diagnostics& diagnostics) 
   }
   if (diagnostics.has_errors()) return false;
 
-  for (const ConnectionSpec& spec : profile.connections) {
-    Port* source = find_port(spec.source.component + "." + spec.source.port);
-    Port* target = find_port(spec.target.component + "." + spec.target.port);
-    if (!source || !target) {
-      diagnostics.error(spec.where, {}, "connection endpoint not created by its model");
-      continue;
-    }
-    auto connected = connect_ports(*source, *target, spec.policy, spec.depth, spec.program);
-    if (!connected) {
-      diagnostics.error(spec.where, {}, connected.error().message);
-      continue;
-    }
-    Connection* connection = connected.value();
-    if (connection == nullptr) continue;  // a service connection
-    if (spec.watchdog) {
-      auto watched = add_watchdog(*connection, *spec.watchdog);
-      if (!watched) diagnostics.error(spec.watchdog->where, {}, watched.error().message);
-    }
-    if (auto limited = add_rate_policies(*connection, spec); !limited) {
-      diagnostics.error(spec.where, {}, limited.error().message);
-    }
-    if (connection->watchdog() || connection->rate_interval().count > 0) timer_.add(*connection);
-  }
+  for (const ConnectionSpec& spec : profile.connections) wire(spec, diagnostics);
   return !diagnostics.has_errors();
+}
+
+void Engine::wire(const ConnectionSpec& spec, Diagnostics& diagnostics) {
+  Port* source = find_port(spec.source.component + "." + spec.source.port);
+  Port* target = find_port(spec.target.component + "." + spec.target.port);
+  if (!source || !target) {
+    diagnostics.error(spec.where, {}, "connection endpoint not created by its model");
+    return;
+  }
+  auto connected = connect_ports(*source, *target, spec.policy, spec.depth, spec.program);
+  if (!connected) {
+    diagnostics.error(spec.where, {}, connected.error().message);
+    return;
+  }
+  Connection* connection = connected.value();
+  if (connection == nullptr) return;  // a service connection
+  if (spec.watchdog) {
+    auto watched = add_watchdog(*connection, *spec.watchdog);
+    if (!watched) diagnostics.error(spec.watchdog->where, {}, watched.error().message);
+  }
+  if (auto limited = add_rate_policies(*connection, spec); !limited) {
+    diagnostics.error(spec.where, {}, limited.error().message);
+  }
+  if (connection->watchdog() || connection->rate_interval().count > 0) timer_.add(*connection);
 }
 
 Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optional<QueuePolicy> policy,
@@ -261,13 +264,7 @@ Result<void> Engine::remove_connection(std::string_view source, std::string_view
     if (&c.target().owner() == probes_.get() || c.source().full_name() != source || c.target().full_name() != target) {
       continue;
     }
-    // The writer stops first, then the reader lets go of what was queued, then the timer
-    // (watchdog, rate limit) stops handing it anything.
-    c.source().connections().remove(c);
-    c.target().connections().remove(c);
-    timer_.remove(c);
-    removed_.push_back(std::move(*it));
-    connections_.erase(it);
+    unpublish(it);
     return {};
   }
   for (const auto& [required, provided] : service_links_) {
@@ -277,6 +274,132 @@ Result<void> Engine::remove_connection(std::string_view source, std::string_view
     }
   }
   return make_error("no connection " + std::string(source) + " -> " + std::string(target));
+}
+
+void Engine::unpublish(std::vector<std::unique_ptr<Connection>>::iterator it) {
+  Connection& c = **it;
+  // The writer stops first, then the reader lets go of what was queued, then the timer
+  // (watchdog, rate limit) stops handing it anything.
+  c.source().connections().remove(c);
+  c.target().connections().remove(c);
+  timer_.remove(c);
+  removed_.push_back(std::move(*it));
+  connections_.erase(it);
+}
+
+Result<void> Engine::apply(const Change& change, std::vector<std::string>& warnings) {
+  if (!started_) return make_error("the application is not running");
+  // What leaves, found in the running graph before anything changes.
+  std::vector<const Component*> leaving;
+  for (const std::string& name : change.components_out) {
+    const Component* component = find_component(name);
+    if (component == nullptr) return make_error("no component named '" + name + "'");
+    leaving.push_back(component);
+  }
+  std::vector<const Connection*> going;
+  for (const auto& [source, target] : change.connections_out) {
+    const auto it = std::find_if(connections_.begin(), connections_.end(), [&](const auto& c) {
+      return c->source().full_name() == source && c->target().full_name() == target;
+    });
+    // Gone already (disconnected at run time): nothing to take away.
+    if (it != connections_.end()) going.push_back(it->get());
+  }
+  const auto leaves = [&](const Component& owner) {
+    return std::find(leaving.begin(), leaving.end(), &owner) != leaving.end();
+  };
+  for (const auto& c : connections_) {
+    if (leaves(c->source().owner()) || leaves(c->target().owner())) going.push_back(c.get());
+  }
+  for (const auto& [required, provided] : service_links_) {
+    if (leaves(required->owner()) || leaves(provided->owner())) {
+      return make_error("the service connection " + required->full_name() + " -> " + provided->full_name() +
+                        " cannot change while the application runs");
+    }
+  }
+
+  // Make: the new proxies first (nothing is connected to them yet), found by name from now on.
+  Diagnostics diagnostics;
+  ModelContext context{types_, executors_};
+  for (const Subcomponent* sub : change.components_in) {
+    Model* model = models_.find(sub->profile.model);
+    if (!model) {
+      diagnostics.error(sub->profile.where, "/component_profile/model",
+                        "model '" + sub->profile.model + "' is not available in this build");
+      continue;
+    }
+    std::optional<Proxy> proxy = model->create_proxy(*sub, context, diagnostics);
+    if (proxy) staged_.push_back(Node{sub->name, sub->profile.model, std::move(*proxy)});
+  }
+  const auto failed = [&diagnostics](std::string_view what) {
+    std::ostringstream text;
+    diagnostics.print(text);
+    std::string problems = std::move(text).str();
+    while (!problems.empty() && problems.back() == '\n') problems.pop_back();
+    return make_error(std::string(what) + ":\n" + problems);
+  };
+  const std::size_t first_new = connections_.size();
+  if (diagnostics.has_errors()) {
+    roll_back(first_new);
+    return failed("the new components could not be made");
+  }
+  hidden_ = change.components_out;
+  for (const ConnectionSpec* spec : change.connections_in) wire(*spec, diagnostics);
+  if (diagnostics.has_errors()) {
+    roll_back(first_new);
+    return failed("the new connections could not be made");
+  }
+  // New execution contexts (in-process components added now get their own) start; running
+  // ones are left as they are.
+  executors_.start_all(warnings);
+  std::vector<Interceptor*> started;
+  for (const std::size_t index : receivers_first(staged_)) {
+    Node& node = staged_[index];
+    Result<void> up = node.proxy.interceptor->start();
+    started.push_back(node.proxy.interceptor.get());
+    if (!up) {
+      const std::string why = "component '" + node.name + "' did not start: " + up.error().message;
+      for (auto it = started.rbegin(); it != started.rend(); ++it) (*it)->stop();
+      roll_back(first_new);
+      return make_error(why);
+    }
+  }
+
+  // Break: the old connections leave, then the old components stop.
+  timer_.start(notify_);
+  for (const Connection* c : going) {
+    const auto it = std::find_if(connections_.begin(), connections_.end(), [c](const auto& p) { return p.get() == c; });
+    if (it != connections_.end()) unpublish(it);
+  }
+  for (auto it = start_order_.rbegin(); it != start_order_.rend(); ++it) {
+    const auto node = std::find_if(nodes_.begin(), nodes_.end(), [&](const Node& n) { return n.proxy.interceptor.get() == *it; });
+    if (node != nodes_.end() && leaves(*node->proxy.adaptor)) (*it)->stop();
+  }
+  std::erase_if(start_order_, [&](Interceptor* i) {
+    return std::any_of(nodes_.begin(), nodes_.end(), [&](const Node& n) {
+      return n.proxy.interceptor.get() == i && leaves(*n.proxy.adaptor);
+    });
+  });
+  for (auto it = nodes_.begin(); it != nodes_.end();) {
+    if (leaves(*it->proxy.adaptor)) {
+      retired_.push_back(std::move(*it));
+      it = nodes_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  hidden_.clear();
+  start_order_.insert(start_order_.end(), started.begin(), started.end());
+  for (Node& node : staged_) nodes_.push_back(std::move(node));
+  staged_.clear();
+  return {};
+}
+
+void Engine::roll_back(std::size_t first) {
+  while (connections_.size() > first) unpublish(connections_.begin() + static_cast<std::ptrdiff_t>(first));
+  // Writers of the running graph may have touched the new nodes' ports: kept, like removed_.
+  for (Node& node : staged_) retired_.push_back(std::move(node));
+  staged_.clear();
+  hidden_.clear();
 }
 
 Result<DataInPort*> Engine::add_probe(const std::string& port_path, std::uint32_t depth) {
@@ -296,10 +419,10 @@ Result<void> Engine::start(std::vector<std::string>& warnings) {
   started_ = true;
   executors_.start_all(warnings);
   start_order_.clear();
-  for (const std::size_t index : receivers_first()) {
+  for (const std::size_t index : receivers_first(nodes_)) {
     Node& node = nodes_[index];
     Result<void> started = node.proxy.interceptor->start();
-    start_order_.push_back(index);
+    start_order_.push_back(node.proxy.interceptor.get());
     if (!started) {
       stop();
       return make_error("component '" + node.name + "' did not start: " + started.error().message);
@@ -309,11 +432,11 @@ Result<void> Engine::start(std::vector<std::string>& warnings) {
   return {};
 }
 
-std::vector<std::size_t> Engine::receivers_first() const {
+std::vector<std::size_t> Engine::receivers_first(const std::vector<Node>& nodes) const {
   std::map<const Component*, std::size_t> index_of;
-  for (std::size_t i = 0; i < nodes_.size(); ++i) index_of[nodes_[i].proxy.adaptor.get()] = i;
+  for (std::size_t i = 0; i < nodes.size(); ++i) index_of[nodes[i].proxy.adaptor.get()] = i;
   // sends_to[i]: the nodes node i's data connections and calls go to (probes are not nodes).
-  std::vector<std::vector<std::size_t>> sends_to(nodes_.size());
+  std::vector<std::vector<std::size_t>> sends_to(nodes.size());
   for (const auto& connection : connections_) {
     const auto source = index_of.find(&connection->source().owner());
     const auto target = index_of.find(&connection->target().owner());
@@ -327,11 +450,11 @@ std::vector<std::size_t> Engine::receivers_first() const {
     if (caller == index_of.end() || provider == index_of.end() || caller->second == provider->second) continue;
     sends_to[caller->second].push_back(provider->second);
   }
-  std::vector<bool> placed(nodes_.size(), false);
+  std::vector<bool> placed(nodes.size(), false);
   std::vector<std::size_t> order;
-  while (order.size() < nodes_.size()) {
+  while (order.size() < nodes.size()) {
     bool progress = false;
-    for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
       if (placed[i]) continue;
       const bool ready = std::all_of(sends_to[i].begin(), sends_to[i].end(), [&](std::size_t t) { return placed[t]; });
       if (!ready) continue;
@@ -352,23 +475,30 @@ void Engine::stop() {
   if (!started_) return;
   started_ = false;
   timer_.stop();  // no safe value or held sample goes to a component that is stopping
-  for (auto it = start_order_.rbegin(); it != start_order_.rend(); ++it) nodes_[*it].proxy.interceptor->stop();
+  for (auto it = start_order_.rbegin(); it != start_order_.rend(); ++it) (*it)->stop();
   start_order_.clear();
   executors_.stop_all();
 }
 
-Component* Engine::find_component(std::string_view name) const noexcept {
+const Engine::Node* Engine::find_node(std::string_view name) const noexcept {
+  for (const Node& node : staged_) {
+    if (node.name == name) return &node;
+  }
+  if (std::find(hidden_.begin(), hidden_.end(), name) != hidden_.end()) return nullptr;
   for (const Node& node : nodes_) {
-    if (node.name == name) return node.proxy.adaptor.get();
+    if (node.name == name) return &node;
   }
   return nullptr;
 }
 
+Component* Engine::find_component(std::string_view name) const noexcept {
+  const Node* node = find_node(name);
+  return node ? node->proxy.adaptor.get() : nullptr;
+}
+
 Interceptor* Engine::find_interceptor(std::string_view name) const noexcept {
-  for (const Node& node : nodes_) {
-    if (node.name == name) return node.proxy.interceptor.get();
-  }
-  return nullptr;
+  const Node* node = find_node(name);
+  return node ? node->proxy.interceptor.get() : nullptr;
 }
 
 Port* Engine::find_port(std::string_view path) const noexcept {

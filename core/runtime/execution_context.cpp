@@ -187,7 +187,9 @@ void ExecutionContext::run() {
 ExecutionContext& ExecutionContextPool::shared(const ExecutionSettings& settings) {
   for (std::size_t i = 0; i < contexts_.size(); ++i) {
     const ExecutionSettings& s = contexts_[i]->settings();
-    if (!exclusive_[i] && s.period == settings.period && s.policy == settings.policy &&
+    // A running context's members are fixed: a component added while the application runs
+    // (a reload) gets a new context.
+    if (!exclusive_[i] && !contexts_[i]->running() && s.period == settings.period && s.policy == settings.policy &&
         s.priority == settings.priority && s.cpu == settings.cpu && s.spin == settings.spin) {
       return *contexts_[i];
     }

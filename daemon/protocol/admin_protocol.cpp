@@ -8,7 +8,7 @@
 namespace polyport::admin {
 namespace {
 
-constexpr std::array<std::pair<std::string_view, Command>, 10> kCommands{{
+constexpr std::array<std::pair<std::string_view, Command>, 11> kCommands{{
     {"hello", Command::hello},
     {"list", Command::list},
     {"stats", Command::stats},
@@ -19,6 +19,7 @@ constexpr std::array<std::pair<std::string_view, Command>, 10> kCommands{{
     {"set", Command::set},
     {"connect", Command::connect},
     {"disconnect", Command::disconnect},
+    {"reload", Command::reload},
 }};
 
 // The fields a request may carry besides v, id and cmd.
@@ -51,6 +52,7 @@ Shape shape_of(Command command) noexcept {
     case Command::hello:
     case Command::list:
     case Command::stats:
+    case Command::reload:
       return {0, 0};
     case Command::activate:
     case Command::deactivate:

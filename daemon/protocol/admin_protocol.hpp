@@ -21,7 +21,7 @@ inline constexpr int kProtocolVersion = 1;
 inline constexpr std::size_t kMaxRequestLine = 64 * 1024;
 
 // The commands of protocol version 1.
-enum class Command { hello, list, stats, activate, deactivate, reset, get, set, connect, disconnect };
+enum class Command { hello, list, stats, activate, deactivate, reset, get, set, connect, disconnect, reload };
 std::string_view to_string(Command command) noexcept;
 // Lifecycle commands, get and set name a component.
 bool needs_component(Command command) noexcept;

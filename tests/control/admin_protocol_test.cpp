@@ -41,7 +41,7 @@ TEST(AdminRequest, RefusesWithAReasonAndKeepsTheId) {
                         Case{R"({"id":3,"cmd":"hello"})", kBadRequest, "\"v\""},
                         Case{R"({"v":2,"id":3,"cmd":"hello"})", kBadRequest, "version 2 is not supported"},
                         Case{R"({"v":1,"id":3})", kBadRequest, "\"cmd\""},
-                        Case{R"({"v":1,"id":3,"cmd":"reload"})", kUnknownCommand, "unknown command 'reload'"},
+                        Case{R"({"v":1,"id":3,"cmd":"restart"})", kUnknownCommand, "unknown command 'restart'"},
                         Case{R"({"v":1,"id":3,"cmd":"activate"})", kBadRequest, "needs \"component\""},
                         Case{R"({"v":1,"id":3,"cmd":"activate","component":""})", kBadRequest, "\"component\" must be a non-empty string"},
                         Case{R"({"v":1,"id":3,"cmd":"list","component":"X"})", kBadRequest, "takes no"},

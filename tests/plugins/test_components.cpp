@@ -166,12 +166,13 @@ class PeerCaller final : public ComponentBase {
 // Publishes its `step` property every cycle, and whether its last onPropertyChanged ran on
 // the thread that runs its onExecute (1), another thread (0), or has not run (-1). Takes
 // changes of `step` (an integer >= 0) while it runs; refuses a negative one (bad_parameter)
-// and changes of any other property (unsupported).
+// and changes of any other property (unsupported). A negative `step` in its profile fails
+// its initialization.
 class Tunable final : public ComponentBase {
  public:
   ReturnCode onInitialize() override {
     step_ = property_int("step", 1);
-    return ReturnCode::ok;
+    return step_ < 0 ? ReturnCode::bad_parameter : ReturnCode::ok;
   }
   ReturnCode onExecute() override {
     execute_thread_ = std::this_thread::get_id();

@@ -92,6 +92,10 @@ struct Subcomponent {
   std::filesystem::path reference;  // resolved path of the component profile
   ComponentProfile profile;
   SourceLocation where;
+  // What the profiles say of this instance, for a reload to tell a changed one from one that
+  // is the same: its <subcomponent> element, its component profile file and that file's type
+  // files, as text.
+  std::string definition;
 };
 
 struct ConnectionEnd {
@@ -148,6 +152,9 @@ struct ConnectionSpec {
   // by name when there is none). Null when the types are the same.
   std::shared_ptr<const MappingProgram> program;
   SourceLocation where;
+  // Its <port_connection> element as text (attributes and children, whitespace aside): what a
+  // reload compares.
+  std::string definition;
 };
 
 struct ApplicationProfile {

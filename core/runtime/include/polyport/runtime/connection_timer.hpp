@@ -36,7 +36,9 @@ class ConnectionTimer {
   ConnectionTimer& operator=(const ConnectionTimer&) = delete;
   ~ConnectionTimer() { stop(); }
 
-  void add(Connection& connection) { connections_.push_back(&connection); }
+  // Control thread, also while the thread runs (Engine::apply); the thread looks at it from
+  // its next pass, at once.
+  void add(Connection& connection);
   // Control thread, also while the thread runs (Engine::remove_connection): the thread no
   // longer looks at `connection` once this returns.
   void remove(const Connection& connection);

@@ -53,6 +53,26 @@ class Engine {
   // stats() keeps listing it, marked removed, with the counts it had.
   Result<Connection*> add_connection(const ConnectionSpec& spec);
   Result<void> remove_connection(std::string_view source, std::string_view target);
+  // A reload's change to the running graph (control thread). Components in `components_in`
+  // are new, or replace the running instance of the same name listed in `components_out`;
+  // connections in `connections_out` ("Component.port" pairs) go, and so does every connection
+  // of a component that goes; `connections_in` are made (new ones, changed ones, and the
+  // connections of replaced components). Data and event connections only: service bindings
+  // are fixed while the application runs (the caller refuses such a change).
+  struct Change {
+    std::vector<const Subcomponent*> components_in;
+    std::vector<std::string> components_out;
+    std::vector<const ConnectionSpec*> connections_in;
+    std::vector<std::pair<std::string, std::string>> connections_out;
+  };
+  // Make before break: the new proxies and connections are made and the new components
+  // started while the old graph runs untouched; only then do the old connections leave and
+  // the old components stop. If anything fails before that, what was made is taken back and
+  // the running graph is as it was; the error says what failed (profile locations included).
+  // What leaves is stopped but kept in memory until the engine is destroyed (see
+  // remove_connection), and so are in-process components' execution contexts: a component
+  // added while the application runs gets a context of its own.
+  Result<void> apply(const Change& change, std::vector<std::string>& warnings);
   // Adds a pull-mode probe on an output port ("Component.port"): an internal input port fed
   // by a circular connection that a tracer reads from another thread.
   Result<DataInPort*> add_probe(const std::string& port_path, std::uint32_t depth);
@@ -82,8 +102,16 @@ class Engine {
     Proxy proxy;
   };
 
-  // Node indexes in start order (see start()).
-  std::vector<std::size_t> receivers_first() const;
+  // By instance name: staged nodes first, then running ones not hidden (see apply()).
+  const Node* find_node(std::string_view name) const noexcept;
+  // Indexes into `nodes` in start order (see start()).
+  std::vector<std::size_t> receivers_first(const std::vector<Node>& nodes) const;
+  // Makes a profile connection with its policies; problems go to diagnostics.
+  void wire(const ConnectionSpec& spec, Diagnostics& diagnostics);
+  // Takes a connection off both ports and the timer; its memory moves to removed_.
+  void unpublish(std::vector<std::unique_ptr<Connection>>::iterator connection);
+  // Takes back what apply() made: connections from index `first` on, and the staged nodes.
+  void roll_back(std::size_t first);
   Result<Connection*> connect_ports(Port& source, Port& target, std::optional<QueuePolicy> policy,
                                     std::optional<std::uint32_t> depth,
                                     std::shared_ptr<const MappingProgram> mapping = nullptr);
@@ -95,6 +123,11 @@ class Engine {
   TypeRegistry& types_;
   ExecutionContextPool executors_;
   std::vector<Node> nodes_;
+  // During apply(): the new nodes (found first by name), and the running ones they replace
+  // (found no more by name).
+  std::vector<Node> staged_;
+  std::vector<std::string> hidden_;
+  std::vector<Node> retired_;  // stopped by apply(), kept like removed_ connections
   std::vector<std::unique_ptr<Connection>> connections_;
   std::vector<std::unique_ptr<Connection>> removed_;  // see remove_connection
   std::vector<std::shared_ptr<const MappingProgram>> mappings_;  // used by connections_
@@ -103,7 +136,7 @@ class Engine {
   std::unique_ptr<Component> probes_;
   std::unique_ptr<Component> watchdog_events_;  // the watchdogs' event ports (<watchdog><event>)
   bool started_ = false;
-  std::vector<std::size_t> start_order_;  // indexes into nodes_, in the order started
+  std::vector<Interceptor*> start_order_;  // the order started
   ConnectionTimer timer_;  // watchdogs and rate limits
   ConnectionTimer::Notify notify_;
 };
