@@ -171,9 +171,42 @@ TEST_F(ReloadDaemon, SighupAppliesTheProfileAsItReadsNow) {
   ASSERT_EQ(motors.size(), 1u);
   EXPECT_TRUE(motors.front().value("removed", false)) << motors.front().dump();
   bool spare = false;
-  for (const Json& c : json("list")["components"]) spare |= c.value("name", "") == "Spare";
+  const Json graph = json("list");
+  for (const Json& c : graph["components"]) spare |= c.value("name", "") == "Spare";
   EXPECT_FALSE(spare);
   EXPECT_NE(daemon_->errors().find("SIGHUP: reloading"), std::string::npos) << daemon_->errors();
+}
+
+// A Cyclone DDS application's proxy made and started while the application runs, written to
+// by the in-process HW, then stopped when the profiles no longer name it.
+TEST_F(ReloadDaemon, ADdsApplicationJoinsAndLeaves) {
+  std::vector<std::pair<std::string, std::string>> with_teleop = kWheelchair;
+  with_teleop.emplace_back("Teleop", "DdsTeleop.xml");
+  write(with_teleop, kLoop + data_connection("HW.wheel_speeds", "Teleop.wheel_speeds"));
+  Ctl reload = ctl({"reload"});
+  ASSERT_EQ(reload.code, 0) << reload.err << daemon_->errors();
+  const auto teleop = [&] {
+    const Json graph = json("list");
+    for (const Json& c : graph["components"]) {
+      if (c.value("name", "") == "Teleop") return c;
+    }
+    return Json();
+  };
+  EXPECT_EQ(teleop().value("model", ""), "cyclonedds");
+  EXPECT_EQ(teleop().value("state", ""), "active");
+  EXPECT_TRUE(eventually([&] {
+    const std::vector<Json> found = entries("HW.wheel_speeds", "Teleop.wheel_speeds");
+    return found.size() == 1 && found.front().value("delivered", 0) > 3;
+  })) << "nothing reaches the DDS writer";
+
+  write(kWheelchair, kLoop);
+  reload = ctl({"reload"});
+  ASSERT_EQ(reload.code, 0) << reload.err << daemon_->errors();
+  EXPECT_NE(reload.out.find("components removed:"), std::string::npos) << reload.out;
+  EXPECT_TRUE(teleop().is_null());
+  const std::vector<Json> gone = entries("HW.wheel_speeds", "Teleop.wheel_speeds");
+  ASSERT_EQ(gone.size(), 1u);
+  EXPECT_TRUE(gone.front().value("removed", false));
 }
 
 }  // namespace
