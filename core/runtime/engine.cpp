@@ -283,8 +283,13 @@ void Engine::unpublish(std::vector<std::unique_ptr<Connection>>::iterator it) {
   c.source().connections().remove(c);
   c.target().connections().remove(c);
   timer_.remove(c);
+  const DataOutPort* events = c.watchdog() ? c.watchdog()->events() : nullptr;
   removed_.push_back(std::move(*it));
   connections_.erase(it);
+  // Its watchdog's events port says nothing more: that port's connection goes too.
+  if (events == nullptr) return;
+  const auto told = std::find_if(connections_.begin(), connections_.end(), [events](const auto& e) { return &e->source() == events; });
+  if (told != connections_.end()) unpublish(told);
 }
 
 Result<void> Engine::apply(const Change& change, std::vector<std::string>& warnings) {
