@@ -213,9 +213,13 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
   for (const auto& e : graph["execution_contexts"]) {
     out << "  " << e.value("name", "") << "  period=" << e.value("period_ns", 0) / 1e6 << " ms";
     if (e.value("spin_us", 0) > 0) out << "  spin=" << e.value("spin_us", 0) << " us";
+    if (e.contains("priority")) out << "  " << e.value("policy", "") << " priority=" << e.value("priority", 0);
     out << "  members:";
     for (const auto& m : e["members"]) out << " " << m.get<std::string>();
     out << "\n";
+  }
+  if (graph.value("locks_memory", false)) {
+    out << "  (a real-time context: the daemon locks its memory and pre-faults the context's stack)\n";
   }
 }
 

@@ -563,13 +563,22 @@ void Engine::describe(nlohmann::json& out) const {
                                   {"max_in_flight", required->max_in_flight()}});
   }
   out["execution_contexts"] = nlohmann::json::array();
+  bool realtime = false;
   for (const auto& context : executors_.contexts()) {
+    const SchedPolicy policy = context->settings().policy;
     nlohmann::json j{{"name", context->settings().name},
                      {"period_ns", context->settings().period.count},
-                     {"spin_us", context->settings().spin.count / 1000}};
+                     {"spin_us", context->settings().spin.count / 1000},
+                     {"policy", policy == SchedPolicy::fifo ? "SCHED_FIFO" : policy == SchedPolicy::rr ? "SCHED_RR" : "SCHED_OTHER"}};
+    if (policy != SchedPolicy::other) {
+      j["priority"] = context->settings().priority;
+      realtime = true;
+    }
     for (Lifecycle* member : context->members()) j["members"].push_back(member->component().instance_name());
     out["execution_contexts"].push_back(std::move(j));
   }
+  // A real-time context makes the daemon lock its memory and pre-fault the context's stack.
+  out["locks_memory"] = realtime;
 }
 
 void Engine::stats(nlohmann::json& out) const {
@@ -666,6 +675,7 @@ void Engine::stats(nlohmann::json& out) const {
     for (Lifecycle* member : context->members()) j["members"].push_back(member->component().instance_name());
     out["execution_contexts"].push_back(std::move(j));
   }
+  out["memory_locked"] = executors_.memory_locked();
 }
 
 std::string Engine::summary_line() const {

@@ -5,11 +5,14 @@
 
 #include <linux/futex.h>
 #include <pthread.h>
+#include <sys/mman.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sched.h>
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <climits>
 
 #include <cerrno>
@@ -149,12 +152,21 @@ void ExecutionContext::sleep_until(MonoTime deadline) {
   }
 }
 
+// A real-time context touches the stack it may use once, before its first cycle, so that no
+// cycle pays a page fault for it (with memory locked, the pages then stay).
+void ExecutionContext::prefault_stack() noexcept {
+  volatile std::uint8_t stack[kPrefaultedStack];
+  for (std::size_t i = 0; i < sizeof stack; i += 4096) stack[i] = 0;
+  stack[sizeof stack - 1] = 0;
+}
+
 void ExecutionContext::run() {
   // The kernel may defer a sleeping thread's wake-up by its timer slack (50 us by default) to
   // batch wake-ups; a periodic context wants its deadline, so it asks for the minimum.
   if (prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL) == 0) {
     timer_slack_ns_.store(prctl(PR_GET_TIMERSLACK, 0UL, 0UL, 0UL, 0UL), std::memory_order_relaxed);
   }
+  if (settings_.policy != SchedPolicy::other) prefault_stack();
   MonoTime deadline = mono_now();
   while (!stop_requested_.load(std::memory_order_acquire)) {
     if (command_pending_.load(std::memory_order_acquire)) apply_pending_command();
@@ -206,11 +218,41 @@ ExecutionContext& ExecutionContextPool::exclusive(const ExecutionSettings& setti
 }
 
 void ExecutionContextPool::start_all(std::vector<std::string>& warnings) {
+  const bool realtime = std::any_of(contexts_.begin(), contexts_.end(), [](const auto& c) {
+    return c->settings().policy != SchedPolicy::other;
+  });
+  if (realtime && !memory_locked_) lock_memory(warnings);
   for (auto& context : contexts_) context->start(warnings);
+}
+
+// Locks the process's pages (now and later) in memory, so that a real-time context never
+// waits for a page to come back. Only where the limit allows locking everything: with
+// MCL_FUTURE under a finite RLIMIT_MEMLOCK, an allocation past the limit would fail instead.
+void ExecutionContextPool::lock_memory(std::vector<std::string>& warnings) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  // The sanitizers' shadow memory is terabytes of reserved address space: never locked.
+  warnings.push_back("memory not locked: a sanitizer build");
+  return;
+#endif
+  rlimit limit{};
+  const bool unlimited = getrlimit(RLIMIT_MEMLOCK, &limit) == 0 && limit.rlim_cur == RLIM_INFINITY;
+  if (!unlimited && geteuid() != 0) {
+    warnings.push_back("memory not locked: RLIMIT_MEMLOCK is " + std::to_string(limit.rlim_cur) +
+                       " bytes (a real-time context may wait for page faults; `ulimit -l unlimited` or "
+                       "LimitMEMLOCK=infinity allows locking)");
+    return;
+  }
+  if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
+    warnings.push_back(std::string("memory not locked: mlockall: ") + std::strerror(errno) +
+                       " (a real-time context may wait for page faults)");
+    return;
+  }
+  memory_locked_ = true;
 }
 
 void ExecutionContextPool::stop_all() {
   for (auto& context : contexts_) context->stop();
+  if (memory_locked_ && munlockall() == 0) memory_locked_ = false;
 }
 
 }  // namespace polyport

@@ -3,6 +3,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <fstream>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -232,6 +233,62 @@ TEST(ExecutionContextPool, SharesContextsByPeriodAndPriority) {
   EXPECT_NE(&pool.shared(ten), &pool.shared(five));
   EXPECT_NE(&pool.exclusive(ten), &pool.shared(ten));
   EXPECT_EQ(pool.contexts().size(), 3u);
+}
+
+// A running context's member list is fixed: a component added while the application runs
+// (a reload) gets a context of its own.
+TEST(ExecutionContextPool, ARunningContextIsNotShared) {
+  ExecutionContextPool pool;
+  ExecutionSettings ten{"a", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}};
+  ExecutionContext& first = pool.shared(ten);
+  std::vector<std::string> warnings;
+  pool.start_all(warnings);
+  ExecutionContext& second = pool.shared(ten);
+  EXPECT_NE(&first, &second);
+  EXPECT_FALSE(second.running());
+  pool.start_all(warnings);  // starts the new one, leaves the running one
+  EXPECT_TRUE(first.running() && second.running());
+  pool.stop_all();
+}
+
+// VmLck of this process, in KiB.
+long locked_kib() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmLck:", 0) == 0) return std::stol(line.substr(6));
+  }
+  return -1;
+}
+
+TEST(ExecutionContextPool, ARealTimeContextLocksMemoryWhereTheLimitsAllow) {
+  {
+    ExecutionContextPool plain;
+    plain.exclusive(ExecutionSettings{"other", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}});
+    std::vector<std::string> warnings;
+    plain.start_all(warnings);
+    EXPECT_FALSE(plain.memory_locked());
+    EXPECT_EQ(locked_kib(), 0);
+    EXPECT_TRUE(warnings.empty());
+    plain.stop_all();
+  }
+  ExecutionContextPool pool;
+  pool.exclusive(ExecutionSettings{"fifo", Nanos{10'000'000}, SchedPolicy::fifo, 10, std::nullopt, Nanos{0}});
+  std::vector<std::string> warnings;
+  pool.start_all(warnings);
+  std::string said;
+  for (const std::string& w : warnings) said += w + "\n";
+  if (pool.memory_locked()) {
+    EXPECT_GT(locked_kib(), 0);
+    EXPECT_EQ(said.find("memory not locked"), std::string::npos) << said;
+  } else {
+    // Not root and a finite limit, or mlockall refused: said once, and nothing locked.
+    EXPECT_NE(said.find("memory not locked"), std::string::npos) << said;
+    EXPECT_EQ(locked_kib(), 0);
+  }
+  pool.stop_all();
+  EXPECT_FALSE(pool.memory_locked());
+  EXPECT_EQ(locked_kib(), 0) << "stop_all unlocks";
 }
 
 }  // namespace

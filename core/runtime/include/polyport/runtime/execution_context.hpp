@@ -83,7 +83,9 @@ class ExecutionContext {
   bool pinned() const noexcept { return pinned_; }
 
  private:
+  static constexpr std::size_t kPrefaultedStack = 256 * 1024;
   void run();
+  void prefault_stack() noexcept;
   void apply_pending_command();
   void wake() noexcept;
   void sleep_until(MonoTime deadline);
@@ -121,13 +123,19 @@ class ExecutionContextPool {
  public:
   ExecutionContext& shared(const ExecutionSettings& settings);
   ExecutionContext& exclusive(const ExecutionSettings& settings);
+  // Starts the contexts not running yet. When one asks for a real-time policy, the process's
+  // memory is locked first (mlockall), where the limits allow; otherwise one warning.
   void start_all(std::vector<std::string>& warnings);
-  void stop_all();
+  void stop_all();  // and unlocks the memory it locked
+  bool memory_locked() const noexcept { return memory_locked_; }
   const std::vector<std::unique_ptr<ExecutionContext>>& contexts() const noexcept { return contexts_; }
 
  private:
+  void lock_memory(std::vector<std::string>& warnings);
+
   std::vector<std::unique_ptr<ExecutionContext>> contexts_;
   std::vector<bool> exclusive_;
+  bool memory_locked_ = false;
 };
 
 }  // namespace polyport
