@@ -175,6 +175,11 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
   for (const auto& c : graph["components"]) {
     out << "  " << c.value("name", "") << "  model=" << c.value("model", "");
     if (c.contains("execution_context")) out << "  execution_context=" << c["execution_context"].get<std::string>();
+    for (const char* model : {"lcm", "socketcan"}) {
+      if (c.contains(model) && c[model].contains("receive_thread")) {
+        out << "  receive_thread=" << c[model]["receive_thread"].value("asked", "");
+      }
+    }
     out << "\n";
     for (const auto& p : c["ports"]) {
       out << "    " << p.value("direction", "") << " " << p.value("kind", "") << " " << p.value("name", "");

@@ -14,6 +14,7 @@ const std::vector<ElementRule> kLcmRules = {
     {"max_message_bytes", {"max_message_bytes"}},
     max_calls_rule(),
     call_timeout_rule(),
+    receive_thread_rule(),
 };
 // 2^28 bytes: the largest message LCM's UDP multicast provider reassembles.
 constexpr std::uint32_t kMaxMessageBytes = 1U << 28;
@@ -70,6 +71,7 @@ class LcmReader final : public ComponentSectionReader {
       }
     }
     read_call_limits(children, *settings_);
+    settings_->receive_thread = read_receive_thread(children);
   }
 
   void read_port(const PortSpec& port, const ProfileChildren& elements) override {

@@ -15,6 +15,7 @@
 #include "polyport/profile/call_limits.hpp"
 #include "polyport/profile/model_section.hpp"
 #include "polyport/profile/profile.hpp"
+#include "polyport/profile/thread_settings.hpp"
 
 namespace polyport::lcm {
 
@@ -39,6 +40,7 @@ struct LcmSettings final : ModelSettings, CallLimits {
   // dropped. Messages over 64 KB travel fragmented; LCM reassembles them.
   std::uint32_t max_message_bytes = 256U << 10;
   SourceLocation where;                             // the <lcm> element; line 0 when there is none
+  std::optional<ThreadScheduling> receive_thread;   // <receive_thread>: the instance's receive thread
   std::map<std::string, std::string, std::less<>> channels;  // port -> channel, when given
   // Service ports: port -> operation -> its messages and channels.
   std::map<std::string, std::map<std::string, OperationSettings, std::less<>>, std::less<>> operations;

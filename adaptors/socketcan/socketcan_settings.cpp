@@ -12,6 +12,7 @@ using text::in_quotes;
 const std::vector<ElementRule> kSocketCanRules = {
     {"interface", {"interface"}},
     {"fd", {"fd"}},
+    receive_thread_rule(),
 };
 
 class SocketCanReader final : public ComponentSectionReader {
@@ -30,6 +31,7 @@ class SocketCanReader final : public ComponentSectionReader {
     if (const ProfileElement fd = children.one("fd")) {
       if (const auto value = enum_text(fd, text::kBooleans, "fd")) settings_->fd = *value;
     }
+    settings_->receive_thread = read_receive_thread(children);
   }
 
   // The message of a port is its data_type; a port polyport sends may have a <cycle_ms>.

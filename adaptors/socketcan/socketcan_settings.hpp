@@ -17,6 +17,7 @@
 #include "polyport/base/diagnostics.hpp"
 #include "polyport/profile/model_section.hpp"
 #include "polyport/profile/profile.hpp"
+#include "polyport/profile/thread_settings.hpp"
 
 namespace polyport::socketcan {
 
@@ -30,6 +31,8 @@ struct SocketCanSettings final : ModelSettings {
   std::string interface{kDefaultInterface};
   bool fd = false;      // CAN_RAW_FD_FRAMES: the socket also reads and writes CAN FD frames
   SourceLocation where;  // the <socketcan> element; line 0 when there is none
+  // <receive_thread>: the daemon's one CAN receive thread (the strongest request applies).
+  std::optional<ThreadScheduling> receive_thread;
   std::map<std::string, std::uint32_t, std::less<>> cycle_ms;  // port -> <cycle_ms>, when given
 
   // A port's <cycle_ms>; nullopt when the profile says none (the DBC's cycle time applies).

@@ -20,6 +20,7 @@
 
 #include "polyport/runtime/component_api.hpp"
 #include "polyport/runtime/service.hpp"
+#include "polyport/runtime/thread_scheduling.hpp"
 
 namespace polyport {
 
@@ -45,31 +46,12 @@ void ExecutionContext::start(std::vector<std::string>& warnings) {
 
   const std::string name = settings_.name.substr(0, 15);  // the kernel's limit
   pthread_setname_np(thread_.native_handle(), name.c_str());
-  if (settings_.policy != SchedPolicy::other) {
-    sched_param param{};
-    param.sched_priority = settings_.priority;
-    const int policy = settings_.policy == SchedPolicy::fifo ? SCHED_FIFO : SCHED_RR;
-    const int rc = pthread_setschedparam(thread_.native_handle(), policy, &param);
-    if (rc == 0) {
-      realtime_applied_ = true;
-    } else {
-      warnings.push_back("execution context '" + settings_.name + "': real-time priority " +
-                         std::to_string(settings_.priority) + " refused (" + std::strerror(rc) +
-                         "); running with SCHED_OTHER");
-    }
-  }
-  if (settings_.cpu) {
-    cpu_set_t set;
-    CPU_ZERO(&set);
-    CPU_SET(*settings_.cpu, &set);
-    const int rc = pthread_setaffinity_np(thread_.native_handle(), sizeof(set), &set);
-    if (rc == 0) {
-      pinned_ = true;
-    } else {
-      warnings.push_back("execution context '" + settings_.name + "': pinning to CPU " +
-                         std::to_string(*settings_.cpu) + " refused (" + std::strerror(rc) + "); not pinned");
-    }
-  }
+  const SchedulingOutcome outcome = apply_scheduling(
+      thread_.native_handle(), ThreadScheduling{settings_.policy, settings_.priority, settings_.cpu},
+      "execution context '" + settings_.name + "'");
+  realtime_applied_ = outcome.realtime_applied;
+  pinned_ = outcome.pinned;
+  if (!outcome.problem.empty()) warnings.push_back(outcome.problem);
 }
 
 void ExecutionContext::stop() {

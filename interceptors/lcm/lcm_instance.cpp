@@ -11,6 +11,8 @@
 #include <cstring>
 
 #include <lcm/lcm.h>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
 
 namespace polyport::lcm {
 
@@ -110,7 +112,27 @@ Result<void> Instance::start() {
   wake_fd_ = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (wake_fd_ < 0) return make_error(std::string("eventfd: ") + std::strerror(errno));
   thread_ = std::thread([this] { run(); });
+  pthread_setname_np(thread_.native_handle(), "pp-lcm-recv");
+  apply_scheduling();
   return {};
+}
+
+void Instance::want(const ThreadScheduling& scheduling) {
+  const ThreadScheduling wanted = scheduling_ ? stronger(*scheduling_, scheduling) : scheduling;
+  if (scheduling_ && wanted == *scheduling_) return;
+  scheduling_ = wanted;
+  if (thread_.joinable()) apply_scheduling();
+}
+
+void Instance::apply_scheduling() {
+  if (!scheduling_) return;
+  applied_ = polyport::apply_scheduling(thread_.native_handle(), *scheduling_, "LCM receive thread of '" + url_ + "'");
+  if (!applied_.problem.empty()) spdlog::warn("{}", applied_.problem);
+}
+
+nlohmann::json Instance::scheduling() const {
+  if (!scheduling_) return nullptr;
+  return {{"asked", to_string(*scheduling_)}, {"realtime", applied_.realtime_applied}, {"pinned", applied_.pinned}};
 }
 
 void Instance::run() noexcept {

@@ -13,6 +13,9 @@
 #include <thread>
 
 #include "polyport/base/result.hpp"
+#include "polyport/runtime/thread_scheduling.hpp"
+#include <nlohmann/json_fwd.hpp>
+#include <optional>
 
 extern "C" {
 struct _lcm_t;
@@ -55,7 +58,15 @@ class Instance {
 
   const std::string& url() const noexcept { return url_; }
 
+  // The scheduling a component asks for the receive thread (<lcm><receive_thread>); the
+  // strongest of the requests of the components sharing the instance is applied when the
+  // thread starts, or at once when it runs already (one warning when refused). Control thread.
+  void want(const ThreadScheduling& scheduling);
+  // {"asked": "SCHED_FIFO 60", "realtime": true, "pinned": false}; null when nothing was asked.
+  nlohmann::json scheduling() const;
+
  private:
+  void apply_scheduling();
   explicit Instance(std::string url) : url_(std::move(url)) {}
   void run() noexcept;
 
@@ -65,6 +76,8 @@ class Instance {
   int wake_fd_ = -1;
   std::atomic<bool> stopping_{false};
   std::thread thread_;
+  std::optional<ThreadScheduling> scheduling_;
+  SchedulingOutcome applied_;
 };
 
 // Escapes `channel` for lcm_subscribe, which takes an anchored regular expression.

@@ -241,6 +241,9 @@ void LcmInterceptor::describe(nlohmann::json& out) const {
     services.push_back(std::move(s));
   }
   out["lcm"] = {{"url", instance_->url()}, {"channels", std::move(channels)}, {"services", std::move(services)}};
+  if (nlohmann::json scheduling = instance_->scheduling(); !scheduling.is_null()) {
+    out["lcm"]["receive_thread"] = std::move(scheduling);
+  }
 }
 
 }  // namespace polyport::lcm

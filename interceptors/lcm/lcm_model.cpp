@@ -17,6 +17,7 @@ std::optional<Proxy> LcmModel::create_proxy(const Subcomponent& sub, ModelContex
     instance = Instance::create(settings->url);
     instances_[settings->url] = instance;
   }
+  if (settings->receive_thread) instance->want(*settings->receive_thread);
   auto interceptor = std::make_unique<LcmInterceptor>(*adaptor, std::move(instance));
   return Proxy{std::move(adaptor), std::move(interceptor)};
 }

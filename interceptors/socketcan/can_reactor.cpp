@@ -10,6 +10,9 @@
 #include <cstring>
 #include <string>
 
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
 namespace polyport::socketcan {
 
 namespace {
@@ -60,7 +63,29 @@ Result<void> CanReactor::start() {
   event.data.ptr = &timer_tag;
   if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, timer_fd_, &event) != 0) return fail("epoll_ctl");
   thread_ = std::thread([this] { run(); });
+  pthread_setname_np(thread_.native_handle(), "pp-can-epoll");
+  apply_scheduling();
   return {};
+}
+
+void CanReactor::want(const ThreadScheduling& scheduling) {
+  std::lock_guard<std::mutex> lock(start_mutex_);
+  const ThreadScheduling wanted = scheduling_ ? stronger(*scheduling_, scheduling) : scheduling;
+  if (scheduling_ && wanted == *scheduling_) return;
+  scheduling_ = wanted;
+  if (thread_.joinable()) apply_scheduling();
+}
+
+void CanReactor::apply_scheduling() {
+  if (!scheduling_) return;
+  applied_ = polyport::apply_scheduling(thread_.native_handle(), *scheduling_, "the CAN receive thread");
+  if (!applied_.problem.empty()) spdlog::warn("{}", applied_.problem);
+}
+
+nlohmann::json CanReactor::scheduling() const {
+  std::lock_guard<std::mutex> lock(start_mutex_);
+  if (!scheduling_) return nullptr;
+  return {{"asked", to_string(*scheduling_)}, {"realtime", applied_.realtime_applied}, {"pinned", applied_.pinned}};
 }
 
 Result<void> CanReactor::add(int fd, ReadableHandler& handler) {

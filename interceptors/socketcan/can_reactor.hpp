@@ -22,6 +22,9 @@
 #include <vector>
 
 #include "polyport/base/result.hpp"
+#include "polyport/runtime/thread_scheduling.hpp"
+#include <nlohmann/json_fwd.hpp>
+#include <optional>
 
 namespace polyport::socketcan {
 
@@ -58,6 +61,13 @@ class CanReactor {
   void remove_in_tick(int fd) noexcept;
   Result<void> add_in_tick(int fd, ReadableHandler& handler);
 
+  // The scheduling a component asks for the thread (<socketcan><receive_thread>); the
+  // strongest request of all the daemon's CAN components is applied when the thread starts,
+  // or at once when it runs already (one warning when refused). Control thread.
+  void want(const ThreadScheduling& scheduling);
+  // {"asked": "SCHED_FIFO 70", "realtime": true, "pinned": false}; null when nothing was asked.
+  nlohmann::json scheduling() const;
+
   // Calls `supervised.on_tick()` every kTickInterval from now on; starts the thread. Control thread.
   Result<void> watch(Supervised& supervised);
   // Stops the ticks for it, waiting for one in progress. Control thread.
@@ -66,13 +76,14 @@ class CanReactor {
  private:
   CanReactor() = default;
   Result<void> start();
+  void apply_scheduling();  // under start_mutex_
   void run() noexcept;
   void tick() noexcept;
 
   int epoll_fd_ = -1;
   int wake_fd_ = -1;
   int timer_fd_ = -1;
-  std::mutex start_mutex_;  // start() from add() and watch()
+  mutable std::mutex start_mutex_;  // start() from add() and watch(); the scheduling
   // The watched ones; the tick holds the mutex while it calls them (not the forwarding path).
   std::mutex supervised_mutex_;
   std::vector<Supervised*> supervised_;
@@ -80,6 +91,8 @@ class CanReactor {
   // Rounds of epoll_wait + dispatch completed; remove() waits for the one in progress.
   std::atomic<std::uint64_t> rounds_{0};
   std::thread thread_;
+  std::optional<ThreadScheduling> scheduling_;  // under start_mutex_
+  SchedulingOutcome applied_;
 };
 
 }  // namespace polyport::socketcan

@@ -604,6 +604,9 @@ void SocketCanInterceptor::describe(nlohmann::json& out) const {
                       {"kernel_dropped", dropped_before_.load(std::memory_order_relaxed) +
                                              dropped_.load(std::memory_order_relaxed)},
                       {"ports", std::move(ports)}};
+  if (nlohmann::json scheduling = reactor_->scheduling(); !scheduling.is_null()) {
+    out["socketcan"]["receive_thread"] = std::move(scheduling);
+  }
 }
 
 }  // namespace polyport::socketcan

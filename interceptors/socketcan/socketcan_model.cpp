@@ -14,6 +14,7 @@ std::optional<Proxy> SocketCanModel::create_proxy(const Subcomponent& sub, Model
     reactor = CanReactor::create();
     reactor_ = reactor;
   }
+  if (adaptor->settings().receive_thread) reactor->want(*adaptor->settings().receive_thread);
   auto interceptor = std::make_unique<SocketCanInterceptor>(*adaptor, std::move(reactor));
   return Proxy{std::move(adaptor), std::move(interceptor)};
 }

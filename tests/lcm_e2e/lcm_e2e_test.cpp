@@ -15,6 +15,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <iterator>
+#include <optional>
 #include <sstream>
 
 #include "../support/multicast_namespace.hpp"
@@ -466,6 +468,51 @@ TEST_F(LcmFastDds, LcmToFastDdsCarriesEveryField) {
 
 TEST_F(LcmFastDds, FastDdsToLcmCarriesEveryFieldWithItsLengthMember) {
   dds_to_lcm(FASTDDS_PEER, "fastdds");
+}
+
+// The receive thread runs with the scheduling <lcm><receive_thread> asks for: SCHED_FIFO 20
+// on CPU 0, seen in /proc; where the process may not (not root), one warning says so.
+TEST_F(LcmEndToEnd, TheReceiveThreadRunsWithTheProfilesScheduling) {
+  std::ofstream(dir() / "Rt.xml") << R"(<?xml version="1.0"?>
+<component_profile><name>Rt</name><model>lcm</model>
+  <lcm><url>)" << kUrl << R"(</url><receive_thread policy="SCHED_FIFO" priority="20" cpu="0"/></lcm>
+  <types><file>)" POLYPORT_SOURCE_DIR R"(/config/types/wheelchair.lcm</file></types>
+  <ports><data_port><name>reference</name><data_type>wheelchair_lcm::reference_t</data_type><usage>output</usage></data_port></ports>
+</component_profile>)";
+  std::ofstream(dir() / "rt_app.xml") << R"(<?xml version="1.0"?>
+<application_profile><name>rt</name>
+  <subcomponents><subcomponent><name>rt</name><reference>Rt.xml</reference></subcomponent></subcomponents>
+</application_profile>)";
+  auto daemon = this->daemon(dir() / "rt_app.xml");
+  // /proc/PID/task/TID/stat: field 40 is the real-time priority, 41 the policy (1: SCHED_FIFO).
+  const auto receive_thread = [&]() -> std::optional<std::pair<int, int>> {
+    for (const auto& task : fs::directory_iterator("/proc/" + std::to_string(daemon->pid()) + "/task")) {
+      std::ifstream comm(task.path() / "comm");
+      std::string name;
+      std::getline(comm, name);
+      if (name != "pp-lcm-recv") continue;
+      std::ifstream stat(task.path() / "stat");
+      std::string text((std::istreambuf_iterator<char>(stat)), {});
+      std::istringstream fields(text.substr(text.rfind(')') + 2));
+      std::vector<std::string> f{std::istream_iterator<std::string>(fields), {}};
+      return std::pair{std::stoi(f.at(37)), std::stoi(f.at(38))};  // fields 40 and 41
+    }
+    return std::nullopt;
+  };
+  ASSERT_TRUE(eventually([&] { return receive_thread().has_value(); })) << daemon->errors();
+  const bool allowed = geteuid() == 0;
+  if (allowed) {
+    EXPECT_EQ(receive_thread()->second, 1) << "SCHED_FIFO";
+    EXPECT_EQ(receive_thread()->first, 20);
+  } else {
+    EXPECT_NE(daemon->errors().find("LCM receive thread of '" + std::string(kUrl) + "': real-time priority 20 refused"),
+              std::string::npos) << daemon->errors();
+  }
+  const Json stats = stop(*daemon);
+  const Json thread = stats["components"][0]["lcm"]["receive_thread"];
+  EXPECT_EQ(thread.value("asked", ""), "SCHED_FIFO 20 on CPU 0") << stats.dump(2);
+  EXPECT_EQ(thread.value("realtime", !allowed), allowed);
+  EXPECT_TRUE(thread.value("pinned", false));
 }
 
 }  // namespace

@@ -139,5 +139,38 @@ TEST_F(LcmServiceSettings, StructErrorsWhenTheModelBuildsTheComponent) {
   EXPECT_EQ(messages(), expected);
 }
 
+TEST_F(LcmServiceSettings, ReadsTheReceiveThreadsScheduling) {
+  const auto app = load("thread_app.xml");
+  ASSERT_TRUE(app.has_value()) << ::testing::PrintToString(messages());
+  const std::shared_ptr<const LcmSettings> settings = lcm_settings(app->components[0].profile);
+  ASSERT_TRUE(settings->receive_thread);
+  EXPECT_EQ(settings->receive_thread->policy, SchedPolicy::fifo);
+  EXPECT_EQ(settings->receive_thread->priority, 40);
+  EXPECT_EQ(settings->receive_thread->cpu, 0);
+  EXPECT_EQ(to_string(*settings->receive_thread), "SCHED_FIFO 40 on CPU 0");
+}
+
+TEST_F(LcmServiceSettings, RefusesABadReceiveThreadAtItsPlace) {
+  EXPECT_FALSE(load("bad_thread_app.xml").has_value());
+  const std::vector<std::string> expected{
+      "BadThread.xml:5:68: /component_profile/lcm/receive_thread/@nice: warning: unknown attribute 'nice'",
+      "BadThread.xml:5:54: /component_profile/lcm/receive_thread/@priority: priority 0 is out of range for SCHED_FIFO (1 to 99)",
+      "BadThread.xml:5:62: /component_profile/lcm/receive_thread/@cpu: bad cpu '4096': expected an integer from 0 to 1023",
+      "NoPriority.xml:5:8: /component_profile/lcm/receive_thread: SCHED_RR needs a priority from 1 to 99",
+  };
+  EXPECT_EQ(messages(), expected);
+}
+
+TEST(ThreadScheduling, TheStrongerRequestWins) {
+  const ThreadScheduling other{SchedPolicy::other, 0, 1};
+  const ThreadScheduling fifo40{SchedPolicy::fifo, 40, std::nullopt};
+  const ThreadScheduling rr60{SchedPolicy::rr, 60, 0};
+  EXPECT_EQ(stronger(other, fifo40), (ThreadScheduling{SchedPolicy::fifo, 40, 1})) << "real time wins, the CPU is kept";
+  EXPECT_EQ(stronger(fifo40, other), (ThreadScheduling{SchedPolicy::fifo, 40, 1}));
+  EXPECT_EQ(stronger(fifo40, rr60), rr60);
+  EXPECT_EQ(stronger(rr60, fifo40), rr60);
+  EXPECT_EQ(to_string(other), "SCHED_OTHER on CPU 1");
+}
+
 }  // namespace
 }  // namespace polyport::lcm

@@ -58,6 +58,7 @@ class Child {
   Child& operator=(const Child&) = delete;
 
   bool started() const { return pid_ > 0; }
+  pid_t pid() const { return pid_; }
   void signal(int number) const {
     if (pid_ > 0 && !exited_) kill(pid_, number);
   }

@@ -1,0 +1,23 @@
+// Applying a scheduling request (policy, priority, CPU) to a running thread: execution
+// contexts, an LCM instance's receive thread, the CAN epoll thread. Control path.
+#pragma once
+
+#include <pthread.h>
+
+#include <string>
+#include <string_view>
+
+#include "polyport/profile/thread_settings.hpp"
+
+namespace polyport {
+
+struct SchedulingOutcome {
+  bool realtime_applied = false;  // the policy and priority were taken
+  bool pinned = false;            // the CPU was taken
+  std::string problem;            // one sentence per refusal, for a warning; empty when none
+};
+
+// `what` names the thread in the problem ("execution context 'ec-10ms'").
+SchedulingOutcome apply_scheduling(pthread_t thread, const ThreadScheduling& scheduling, std::string_view what);
+
+}  // namespace polyport
