@@ -23,8 +23,10 @@ namespace polyport::daemon {
 void register_models(ModelRegistry& registry) {
   registry.add(std::make_unique<inproc::InprocModel>());
 #ifdef POLYPORT_WITH_CYCLONEDDS
-  registry.add(std::make_unique<dds::DdsModel>("cyclonedds", cyclonedds::make_cyclonedds_domain,
-                                               cyclonedds::default_config()));
+  auto cyclone = std::make_unique<dds::DdsModel>("cyclonedds", cyclonedds::make_cyclonedds_domain,
+                                                cyclonedds::default_config());
+  cyclone->set_thread_config(cyclonedds::with_thread_scheduling);
+  registry.add(std::move(cyclone));
 #endif
 #ifdef POLYPORT_WITH_FASTDDS
   registry.add(std::make_unique<dds::DdsModel>("fastdds", fastdds::make_fastdds_domain, fastdds::default_config()));

@@ -21,6 +21,7 @@ const std::vector<ElementRule> kDdsRules = {
     {"qos", {"qos"}},
     max_calls_rule(),
     call_timeout_rule(),
+    receive_thread_rule(),
 };
 const std::vector<ElementRule> kQosRules = {
     {"reliability", {"reliability"}},
@@ -97,6 +98,8 @@ void read_qos(const ProfileElement& element, DdsQos& qos) {
 
 class DdsReader final : public ComponentSectionReader {
  public:
+  explicit DdsReader(std::string_view model) : model_(model) {}
+
   void read_component_element(const ProfileElement& dds) override {
     settings_->where = dds.location();
     const ProfileChildren children = dds.children(kDdsRules);
@@ -125,6 +128,16 @@ class DdsReader final : public ComponentSectionReader {
     }
     if (const auto qos = children.one("qos")) read_qos(qos, settings_->qos);
     read_call_limits(children, *settings_);
+    settings_->receive_threads = read_receive_thread(children);
+    if (const ProfileElement thread = children.one("receive_thread"); thread && settings_->receive_threads) {
+      if (model_ == "fastdds") {
+        thread.warning("Fast DDS 2.9 has no setting for the scheduling of its threads: ignored");
+        settings_->receive_threads.reset();
+      } else if (settings_->receive_threads->cpu) {
+        thread.warning("Cyclone DDS 0.10 does not pin its threads: cpu ignored");
+        settings_->receive_threads->cpu.reset();
+      }
+    }
   }
 
   void read_port(const PortSpec& port, const ProfileChildren& elements) override {
@@ -167,6 +180,7 @@ class DdsReader final : public ComponentSectionReader {
   }
 
  private:
+  std::string model_;
   std::shared_ptr<DdsSettings> settings_ = std::make_shared<DdsSettings>();
 };
 
@@ -193,8 +207,8 @@ const ModelVocabulary& DdsSection::vocabulary() const noexcept {
   return kVocabulary;
 }
 
-std::unique_ptr<ComponentSectionReader> DdsSection::reader(std::string_view /*model*/) const {
-  return std::make_unique<DdsReader>();
+std::unique_ptr<ComponentSectionReader> DdsSection::reader(std::string_view model) const {
+  return std::make_unique<DdsReader>(model);
 }
 
 }  // namespace polyport::dds

@@ -18,6 +18,7 @@
 #include "polyport/profile/call_limits.hpp"
 #include "polyport/profile/model_section.hpp"
 #include "polyport/profile/profile.hpp"
+#include "polyport/profile/thread_settings.hpp"
 
 namespace polyport {
 
@@ -68,6 +69,9 @@ struct DdsSettings final : ModelSettings, CallLimits {
   std::optional<std::filesystem::path> config;
   DdsQos qos;                               // <dds><qos>: the default of every port
   SourceLocation where;                     // the <dds> element; line 0 when there is none
+  // <receive_thread>: the scheduling of the SDK's receive and delivery threads of the domain,
+  // where the vendor lets polyport set it (Cyclone DDS; not Fast DDS 2.9: a warning).
+  std::optional<ThreadScheduling> receive_threads;
   std::map<std::string, PortSettings, std::less<>> ports;  // by port name
 
   PortSettings defaults;  // of a port the profile does not describe: the component's QoS

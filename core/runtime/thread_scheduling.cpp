@@ -1,10 +1,23 @@
 #include "polyport/runtime/thread_scheduling.hpp"
 
 #include <sched.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <cstring>
 
 namespace polyport {
+
+std::string realtime_refusal(const ThreadScheduling& scheduling) {
+  if (!scheduling.realtime() || geteuid() == 0) return {};
+  rlimit limit{};
+  if (getrlimit(RLIMIT_RTPRIO, &limit) == 0 &&
+      (limit.rlim_cur == RLIM_INFINITY || limit.rlim_cur >= static_cast<rlim_t>(scheduling.priority))) {
+    return {};
+  }
+  return "real-time priority " + std::to_string(scheduling.priority) + " is not allowed for this process (not root, " +
+         "RLIMIT_RTPRIO " + std::to_string(limit.rlim_cur) + ")";
+}
 
 SchedulingOutcome apply_scheduling(pthread_t thread, const ThreadScheduling& scheduling, std::string_view what) {
   SchedulingOutcome out;

@@ -59,6 +59,24 @@ class CycloneDomain final : public dds::Domain {
 
 std::string default_config() { return POLYPORT_CYCLONE_DEFAULT_CONFIG; }
 
+std::string with_thread_scheduling(const std::string& config, const ThreadScheduling& scheduling) {
+  if (!scheduling.realtime()) return config;
+  std::string threads;
+  for (const char* name : {"recv", "dq.user", "tev"}) {
+    threads += std::string("<Thread name=\"") + name + "\"><Scheduling><Class>realtime</Class><Priority>" +
+               std::to_string(scheduling.priority) + "</Priority></Scheduling></Thread>";
+  }
+  // Cyclone 0.10 configures threads by name and knows no "recvUC" / "recvMC" (the threads it
+  // adds for multiple receive threads): one receive thread, "recv", then takes every packet.
+  const std::string fragment = "<CycloneDDS><Domain><Threads>" + threads +
+                               "</Threads><Internal><MultipleReceiveThreads>false</MultipleReceiveThreads></Internal>"
+                               "</Domain></CycloneDDS>";
+  if (config.empty()) return fragment;
+  const auto first = config.find_first_not_of(" \t\r\n");
+  const bool xml = first != std::string::npos && config[first] == '<';
+  return (xml || config.rfind("file://", 0) == 0 ? config : "file://" + config) + "," + fragment;
+}
+
 Result<std::unique_ptr<dds::Domain>> make_cyclonedds_domain(std::uint32_t domain_id, const std::string& config) {
   auto participant = Participant::create(domain_id, config);
   if (!participant) return participant.error();

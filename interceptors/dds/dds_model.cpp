@@ -2,6 +2,7 @@
 
 #include "dds_adaptor.hpp"
 #include "dds_interceptor.hpp"
+#include "polyport/runtime/thread_scheduling.hpp"
 
 namespace polyport::dds {
 
@@ -9,8 +10,18 @@ std::optional<Proxy> DdsModel::create_proxy(const Subcomponent& sub, ModelContex
                                              Diagnostics& diagnostics) {
   const ComponentProfile& profile = sub.profile;
   const std::shared_ptr<const DdsSettings> settings = dds_settings(profile);
-  const std::string config = settings->config ? settings->config->string() : default_config_;
+  std::string config = settings->config ? settings->config->string() : default_config_;
   const SourceLocation where = settings->where.line != 0 ? settings->where : profile.where;
+  // A domain's threads are the SDK's, set up with the domain: part of its configuration. The
+  // SDK fails to start a thread it may not give the priority, so that is checked first.
+  if (settings->receive_threads && thread_config_) {
+    if (const std::string refusal = realtime_refusal(*settings->receive_threads); refusal.empty()) {
+      config = thread_config_(config, *settings->receive_threads);
+    } else {
+      diagnostics.warning(where, "/component_profile/dds/receive_thread",
+                          name_ + " receive threads: " + refusal + "; they run with SCHED_OTHER");
+    }
+  }
 
   // Ports first: a profile with bad ports does not join a domain.
   std::unique_ptr<DdsAdaptor> adaptor = DdsAdaptor::create(sub, context.types, diagnostics);

@@ -31,6 +31,11 @@ class DdsModel final : public Model {
   std::optional<Proxy> create_proxy(const Subcomponent& subcomponent, ModelContext& context,
                                     Diagnostics& diagnostics) override;
   const std::string& default_config() const noexcept { return default_config_; }
+  // How the vendor's configuration says the scheduling of its receive and delivery threads
+  // (<dds><receive_thread>): the configuration as the factory takes it, with that added. None:
+  // the vendor cannot (the reader warned already).
+  using ThreadConfig = std::function<std::string(const std::string& config, const ThreadScheduling& scheduling)>;
+  void set_thread_config(ThreadConfig thread_config) { thread_config_ = std::move(thread_config); }
 
  private:
   struct DomainEntry {
@@ -40,6 +45,7 @@ class DdsModel final : public Model {
   std::string name_;
   DomainFactory factory_;
   std::string default_config_;
+  ThreadConfig thread_config_;
   DdsSection section_;
   std::map<std::uint32_t, DomainEntry> domains_;
 };

@@ -76,5 +76,37 @@ TEST_F(DdsEndToEnd, InProcessCallerCallsADdsServerAndTimesOutWithoutOne) {
   server_scenario(*this, "server_app.xml", 194, 195, FASTDDS_PEER, 195);
 }
 
+// <dds><receive_thread>: Cyclone's receive, delivery and timed-event threads run SCHED_FIFO
+// at the asked priority (root here); for a process that may not, one warning and SCHED_OTHER.
+TEST_F(DdsEndToEnd, CycloneThreadsRunWithTheProfilesScheduling) {
+  std::ofstream(dir() / "Rt.xml") << R"(<?xml version="1.0"?>
+<component_profile><name>Rt</name><model>cyclonedds</model>
+  <dds><domain>171</domain><receive_thread policy="SCHED_FIFO" priority="30"/></dds>
+  <types><file>)" POLYPORT_SOURCE_DIR R"(/config/types/wheelchair.idl</file></types>
+  <ports><data_port><name>reference</name><data_type>wheelchair::Reference</data_type><usage>output</usage></data_port></ports>
+</component_profile>)";
+  std::ofstream(dir() / "rt_app.xml") << R"(<?xml version="1.0"?>
+<application_profile><name>rt</name>
+  <subcomponents><subcomponent><name>rt</name><reference>Rt.xml</reference></subcomponent></subcomponents>
+</application_profile>)";
+  auto daemon = this->daemon(dir() / "rt_app.xml");
+  ASSERT_TRUE(eventually([&] { return thread_scheduling(daemon->pid(), "recv").has_value(); })) << daemon->errors();
+  if (geteuid() == 0) {
+    for (const char* name : {"recv", "dq.user", "tev"}) {
+      const auto scheduling = thread_scheduling(daemon->pid(), name);
+      ASSERT_TRUE(scheduling) << name;
+      EXPECT_EQ(scheduling->second, 1) << name << " runs SCHED_FIFO";
+      EXPECT_EQ(scheduling->first, 30) << name;
+    }
+    ASSERT_TRUE(thread_scheduling(daemon->pid(), "gc"));
+    EXPECT_EQ(thread_scheduling(daemon->pid(), "gc")->second, 0) << "the others are left as they are";
+  } else {
+    EXPECT_NE(daemon->errors().find("cyclonedds receive threads: real-time priority 30 is not allowed"),
+              std::string::npos) << daemon->errors();
+    EXPECT_EQ(thread_scheduling(daemon->pid(), "recv")->second, 0);
+  }
+  stop(*daemon);
+}
+
 }  // namespace
 }  // namespace polyport

@@ -484,21 +484,7 @@ TEST_F(LcmEndToEnd, TheReceiveThreadRunsWithTheProfilesScheduling) {
   <subcomponents><subcomponent><name>rt</name><reference>Rt.xml</reference></subcomponent></subcomponents>
 </application_profile>)";
   auto daemon = this->daemon(dir() / "rt_app.xml");
-  // /proc/PID/task/TID/stat: field 40 is the real-time priority, 41 the policy (1: SCHED_FIFO).
-  const auto receive_thread = [&]() -> std::optional<std::pair<int, int>> {
-    for (const auto& task : fs::directory_iterator("/proc/" + std::to_string(daemon->pid()) + "/task")) {
-      std::ifstream comm(task.path() / "comm");
-      std::string name;
-      std::getline(comm, name);
-      if (name != "pp-lcm-recv") continue;
-      std::ifstream stat(task.path() / "stat");
-      std::string text((std::istreambuf_iterator<char>(stat)), {});
-      std::istringstream fields(text.substr(text.rfind(')') + 2));
-      std::vector<std::string> f{std::istream_iterator<std::string>(fields), {}};
-      return std::pair{std::stoi(f.at(37)), std::stoi(f.at(38))};  // fields 40 and 41
-    }
-    return std::nullopt;
-  };
+  const auto receive_thread = [&] { return thread_scheduling(daemon->pid(), "pp-lcm-recv"); };
   ASSERT_TRUE(eventually([&] { return receive_thread().has_value(); })) << daemon->errors();
   const bool allowed = geteuid() == 0;
   if (allowed) {

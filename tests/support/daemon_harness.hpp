@@ -13,6 +13,8 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <optional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -107,6 +109,26 @@ class Child {
   bool exited_ = false;
   int code_ = -1;
 };
+
+// The scheduling of a process's thread named `name` (its comm), from /proc/PID/task/TID/stat:
+// {real-time priority (field 40), policy (field 41: 0 SCHED_OTHER, 1 SCHED_FIFO, 2 SCHED_RR)};
+// nullopt when no thread has that name.
+inline std::optional<std::pair<int, int>> thread_scheduling(pid_t pid, const std::string& name) {
+  std::error_code ec;
+  for (const auto& task : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task", ec)) {
+    std::ifstream comm(task.path() / "comm");
+    std::string comm_name;
+    std::getline(comm, comm_name);
+    if (comm_name != name) continue;
+    std::ifstream stat(task.path() / "stat");
+    const std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+    std::istringstream fields(text.substr(text.rfind(')') + 2));  // from field 3 on
+    const std::vector<std::string> f{std::istream_iterator<std::string>(fields), std::istream_iterator<std::string>()};
+    if (f.size() < 39) return std::nullopt;
+    return std::pair{std::stoi(f[37]), std::stoi(f[38])};
+  }
+  return std::nullopt;
+}
 
 // Polls (every 10 ms: the conditions read the peers' output files) until `condition` holds
 // or `limit` passes.

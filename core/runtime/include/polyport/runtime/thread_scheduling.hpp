@@ -17,6 +17,10 @@ struct SchedulingOutcome {
   std::string problem;            // one sentence per refusal, for a warning; empty when none
 };
 
+// Why this process may not give a thread `scheduling`'s real-time priority (not root and
+// RLIMIT_RTPRIO below it), for SDKs that fail outright when refused; empty when it may.
+std::string realtime_refusal(const ThreadScheduling& scheduling);
+
 // `what` names the thread in the problem ("execution context 'ec-10ms'").
 SchedulingOutcome apply_scheduling(pthread_t thread, const ThreadScheduling& scheduling, std::string_view what);
 
