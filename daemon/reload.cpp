@@ -1,6 +1,7 @@
 #include "reload.hpp"
 
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "polyport/types/dbc.hpp"
@@ -143,11 +144,20 @@ Result<GraphDiff> diff(const ApplicationProfile& running, const ApplicationProfi
 }
 
 std::optional<std::string> changed_type(const TypeRegistry& live, const TypeRegistry& fresh) {
+  std::set<std::string, std::less<>> read_files;  // the files the daemon read its types from
+  for (const Type* type : live.declared()) read_files.insert(type->where.file);
   for (const Type* type : fresh.declared()) {
+    const std::string where = type->where.file.empty() ? std::string()
+                                                       : type->where.file + ":" + std::to_string(type->where.line) + ":" +
+                                                             std::to_string(type->where.column) + ": ";
     const Type* running = live.find(type->name);
-    if (running == nullptr || same_shape(*running, *type)) continue;
-    std::string where = type->where.file.empty() ? std::string() : type->where.file + ":" + std::to_string(type->where.line) + ":" +
-                                                   std::to_string(type->where.column) + ": ";
+    if (running == nullptr) {
+      if (read_files.count(type->where.file) == 0) continue;  // a new file: read at the reload
+      return where + "type '" + type->name +
+             "' is new in a file the daemon read at start: type files are read once per run (restart the daemon, or "
+             "declare it in a new file)";
+    }
+    if (same_shape(*running, *type)) continue;
     return where + "type '" + type->name +
            "' differs from the one the daemon runs with: types are read once per run (restart the daemon to change them)";
   }

@@ -79,13 +79,16 @@ void Engine::wire(const ConnectionSpec& spec, Diagnostics& diagnostics) {
     diagnostics.error(spec.where, {}, "connection endpoint not created by its model");
     return;
   }
-  auto connected = connect_ports(*source, *target, spec.policy, spec.depth, spec.program);
+  // Made whole before the ports see it: while the application runs (a reload), the source's
+  // writer may enter it the moment it is published, and its policies are plain fields.
+  auto connected = connect_ports(*source, *target, spec.policy, spec.depth, spec.program, /*publish=*/false);
   if (!connected) {
     diagnostics.error(spec.where, {}, connected.error().message);
     return;
   }
   Connection* connection = connected.value();
   if (connection == nullptr) return;  // a service connection
+  const std::size_t errors = diagnostics.error_count();
   if (spec.watchdog) {
     auto watched = add_watchdog(*connection, *spec.watchdog);
     if (!watched) diagnostics.error(spec.watchdog->where, {}, watched.error().message);
@@ -93,12 +96,15 @@ void Engine::wire(const ConnectionSpec& spec, Diagnostics& diagnostics) {
   if (auto limited = add_rate_policies(*connection, spec); !limited) {
     diagnostics.error(spec.where, {}, limited.error().message);
   }
+  if (diagnostics.error_count() != errors) return;  // left unpublished; the caller gives up
+  connection->target().connections().add(*connection);
+  connection->source().connections().add(*connection);
   if (connection->watchdog() || connection->rate_interval().count > 0) timer_.add(*connection);
 }
 
 Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optional<QueuePolicy> policy,
                                           std::optional<std::uint32_t> depth,
-                                          std::shared_ptr<const MappingProgram> mapping) {
+                                          std::shared_ptr<const MappingProgram> mapping, bool publish) {
   if (source.kind() != target.kind()) {
     return make_error(source.full_name() + " is a " + std::string(to_string(source.kind())) + " port but " +
                       target.full_name() + " is a " + std::string(to_string(target.kind())) + " port");
@@ -144,8 +150,10 @@ Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optio
   }
   if (mapping) mappings_.push_back(std::move(mapping));
   Connection& connection = *connections_.back();
-  in->connections().add(connection);
-  out->connections().add(connection);
+  if (publish) {
+    in->connections().add(connection);
+    out->connections().add(connection);
+  }
   return &connection;
 }
 
@@ -384,8 +392,10 @@ Result<void> Engine::apply(const Change& change, std::vector<std::string>& warni
       return n.proxy.interceptor.get() == i && leaves(*n.proxy.adaptor);
     });
   });
+  std::vector<ExecutionContext*> vacated;
   for (auto it = nodes_.begin(); it != nodes_.end();) {
     if (leaves(*it->proxy.adaptor)) {
+      if (ExecutionContext* context = it->proxy.interceptor->execution_context()) vacated.push_back(context);
       retired_.push_back(std::move(*it));
       it = nodes_.erase(it);
     } else {
@@ -396,15 +406,31 @@ Result<void> Engine::apply(const Change& change, std::vector<std::string>& warni
   start_order_.insert(start_order_.end(), started.begin(), started.end());
   for (Node& node : staged_) nodes_.push_back(std::move(node));
   staged_.clear();
+  retire_unused(vacated);
   return {};
+}
+
+void Engine::retire_unused(const std::vector<ExecutionContext*>& contexts) {
+  for (ExecutionContext* context : contexts) {
+    const bool used = std::any_of(nodes_.begin(), nodes_.end(), [context](const Node& n) {
+      return n.proxy.interceptor->execution_context() == context;
+    });
+    if (!used && !context->retired()) context->retire();
+  }
 }
 
 void Engine::roll_back(std::size_t first) {
   while (connections_.size() > first) unpublish(connections_.begin() + static_cast<std::ptrdiff_t>(first));
   // Writers of the running graph may have touched the new nodes' ports: kept, like removed_.
-  for (Node& node : staged_) retired_.push_back(std::move(node));
+  std::vector<ExecutionContext*> made;
+  for (Node& node : staged_) {
+    if (ExecutionContext* context = node.proxy.interceptor->execution_context()) made.push_back(context);
+    retired_.push_back(std::move(node));
+  }
   staged_.clear();
   hidden_.clear();
+  // The contexts made for them (a reload never adds to a running one) go too, started or not.
+  retire_unused(made);
 }
 
 Result<DataInPort*> Engine::add_probe(const std::string& port_path, std::uint32_t depth) {
@@ -565,6 +591,7 @@ void Engine::describe(nlohmann::json& out) const {
   out["execution_contexts"] = nlohmann::json::array();
   bool realtime = false;
   for (const auto& context : executors_.contexts()) {
+    if (context->retired()) continue;
     const SchedPolicy policy = context->settings().policy;
     nlohmann::json j{{"name", context->settings().name},
                      {"period_ns", context->settings().period.count},
@@ -574,7 +601,11 @@ void Engine::describe(nlohmann::json& out) const {
       j["priority"] = context->settings().priority;
       realtime = true;
     }
-    for (Lifecycle* member : context->members()) j["members"].push_back(member->component().instance_name());
+    for (Lifecycle* member : context->members()) {
+      // A member a reload replaced stays in its context, finalized, while the others run on.
+      if (started_ && member->state() == LifecycleState::finalized) continue;
+      j["members"].push_back(member->component().instance_name());
+    }
     out["execution_contexts"].push_back(std::move(j));
   }
   // A real-time context makes the daemon lock its memory and pre-fault the context's stack.
@@ -661,6 +692,7 @@ void Engine::stats(nlohmann::json& out) const {
   }
   out["execution_contexts"] = nlohmann::json::array();
   for (const auto& context : executors_.contexts()) {
+    if (context->retired()) continue;
     nlohmann::json j{{"name", context->settings().name},
                      {"period_ns", context->settings().period.count},
                      {"cycles", context->cycles()},
@@ -672,7 +704,11 @@ void Engine::stats(nlohmann::json& out) const {
                      {"spin_us", context->settings().spin.count / 1000},
                      {"wake_jitter_ns", to_json(context->wake_jitter().summarize())},
                      {"cycle_time_ns", to_json(context->cycle_time().summarize())}};
-    for (Lifecycle* member : context->members()) j["members"].push_back(member->component().instance_name());
+    for (Lifecycle* member : context->members()) {
+      // A member a reload replaced stays in its context, finalized, while the others run on.
+      if (started_ && member->state() == LifecycleState::finalized) continue;
+      j["members"].push_back(member->component().instance_name());
+    }
     out["execution_contexts"].push_back(std::move(j));
   }
   out["memory_locked"] = executors_.memory_locked();

@@ -183,7 +183,7 @@ ExecutionContext& ExecutionContextPool::shared(const ExecutionSettings& settings
     const ExecutionSettings& s = contexts_[i]->settings();
     // A running context's members are fixed: a component added while the application runs
     // (a reload) gets a new context.
-    if (!exclusive_[i] && !contexts_[i]->running() && s.period == settings.period && s.policy == settings.policy &&
+    if (!exclusive_[i] && !contexts_[i]->running() && !contexts_[i]->retired() && s.period == settings.period && s.policy == settings.policy &&
         s.priority == settings.priority && s.cpu == settings.cpu && s.spin == settings.spin) {
       return *contexts_[i];
     }
@@ -203,8 +203,18 @@ void ExecutionContextPool::start_all(std::vector<std::string>& warnings) {
   const bool realtime = std::any_of(contexts_.begin(), contexts_.end(), [](const auto& c) {
     return c->settings().policy != SchedPolicy::other;
   });
-  if (realtime && !memory_locked_) lock_memory(warnings);
-  for (auto& context : contexts_) context->start(warnings);
+  if (!lock_decided_) {
+    lock_decided_ = true;
+    if (realtime) lock_memory(warnings);
+  } else if (!memory_locked_ && std::any_of(contexts_.begin(), contexts_.end(), [](const auto& c) {
+               return !c->running() && !c->retired() && c->settings().policy != SchedPolicy::other;
+             })) {
+    warnings.push_back("memory not locked for a real-time context started while the application runs "
+                       "(memory is locked at start only, when a real-time context is there then)");
+  }
+  for (auto& context : contexts_) {
+    if (!context->retired()) context->start(warnings);
+  }
 }
 
 // Locks the process's pages (now and later) in memory, so that a real-time context never
@@ -235,6 +245,7 @@ void ExecutionContextPool::lock_memory(std::vector<std::string>& warnings) {
 void ExecutionContextPool::stop_all() {
   for (auto& context : contexts_) context->stop();
   if (memory_locked_ && munlockall() == 0) memory_locked_ = false;
+  lock_decided_ = false;
 }
 
 }  // namespace polyport

@@ -27,6 +27,7 @@ class InprocInterceptor final : public Interceptor {
   void describe(nlohmann::json& out) const override;
   ReturnCode set_property(std::string_view name, const std::string& value, std::string& why) override;
   const std::map<std::string, std::string, std::less<>>* properties() const override { return &instance_->properties(); }
+  ExecutionContext* execution_context() const noexcept override { return context_; }
 
  private:
   std::unique_ptr<ComponentBase> instance_;

@@ -6,6 +6,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -120,6 +121,15 @@ TEST(ReloadTypes, ATypeOfAnotherShapeIsRefused) {
   ASSERT_TRUE(changed);
   EXPECT_NE(changed->find("other.idl:2:"), std::string::npos) << *changed;
   EXPECT_NE(changed->find("type 'm::P' differs from the one the daemon runs with"), std::string::npos) << *changed;
+
+  // A type added to a file the daemon read is refused (the file is not read again); a type in
+  // a new file is fine.
+  TypeRegistry grown;
+  ASSERT_TRUE(grown.add_idl_text("module m { struct P { long x; double y; }; struct R { long r; }; };", "live.idl",
+                                 diagnostics));
+  const std::optional<std::string> added = daemon::changed_type(live, grown);
+  ASSERT_TRUE(added);
+  EXPECT_NE(added->find("type 'm::R' is new in a file the daemon read at start"), std::string::npos) << *added;
 }
 
 // ---------------------------------------------------------------------------------------
@@ -190,6 +200,18 @@ class ReloadEngine : public test::EngineFixture {
     std::vector<std::string> out;
     for (const auto& c : engine.connections()) out.push_back(c->source().full_name() + " -> " + c->target().full_name());
     return out;
+  }
+  // Each running execution context's members, as `describe` lists them.
+  std::vector<std::vector<std::string>> contexts() const {
+    nlohmann::json graph;
+    engine.describe(graph);
+    std::vector<std::vector<std::string>> out;
+    for (const auto& c : graph["execution_contexts"]) out.push_back(c.value("members", std::vector<std::string>{}));
+    return out;
+  }
+  std::size_t running_contexts() const {
+    return static_cast<std::size_t>(std::count_if(engine.executors().contexts().begin(), engine.executors().contexts().end(),
+                                                  [](const auto& c) { return c->running(); }));
   }
   std::optional<std::int64_t> latest(DataInPort& probe) {
     std::optional<std::int64_t> value;
@@ -298,6 +320,8 @@ TEST_F(ReloadEngine, AComponentThatCannotBeMadeIsRefused) {
 TEST_F(ReloadEngine, AChangedComponentIsReplacedAndOneThatDoesNotStartIsTakenBack) {
   write({{"tunable", tunable(1)}, {"collector", "Collector.xml"}}, data("tunable.step", "collector.in"));
   ASSERT_NO_FATAL_FAILURE(start());
+  using Members = std::vector<std::vector<std::string>>;
+  EXPECT_EQ(contexts(), (Members{{"tunable", "collector"}})) << "one context of the same period";
   Interceptor* first = engine.find_interceptor("tunable");
   // Its profile now says step 7: a new instance with the new value, its connection made again.
   write({{"tunable", tunable(7)}, {"collector", "Collector.xml"}}, data("tunable.step", "collector.in"));
@@ -314,6 +338,9 @@ TEST_F(ReloadEngine, AChangedComponentIsReplacedAndOneThatDoesNotStartIsTakenBac
   EXPECT_EQ(second->properties()->at("step"), "7");
   const Connection* remade = engine.connections().front().get();
   EXPECT_TRUE(eventually([&] { return remade->counters().received.load() > 3; })) << "the new instance does not run";
+  // The collector's context runs on without the old instance; the new one has its own.
+  EXPECT_EQ(contexts(), (Members{{"collector"}, {"tunable"}}));
+  EXPECT_EQ(running_contexts(), 2u);
 
   // step -1 fails its initialization: the running instance stays, with its connection.
   write({{"tunable", tunable(-1)}, {"collector", "Collector.xml"}}, data("tunable.step", "collector.in"));
@@ -326,6 +353,15 @@ TEST_F(ReloadEngine, AChangedComponentIsReplacedAndOneThatDoesNotStartIsTakenBac
   EXPECT_EQ(engine.connections().front().get(), remade);
   const std::uint64_t before = remade->counters().received.load();
   EXPECT_TRUE(eventually([&] { return remade->counters().received.load() > before; })) << "the kept instance stopped";
+  EXPECT_EQ(contexts(), (Members{{"collector"}, {"tunable"}})) << "the failed instance's context is gone";
+  EXPECT_EQ(running_contexts(), 2u);
+
+  // Replaced again: the context the replaced instance had alone is retired, its thread ends.
+  write({{"tunable", tunable(9)}, {"collector", "Collector.xml"}}, data("tunable.step", "collector.in"));
+  done = reload();
+  ASSERT_TRUE(done) << done.error().message;
+  EXPECT_EQ(contexts(), (Members{{"collector"}, {"tunable"}}));
+  EXPECT_EQ(running_contexts(), 2u);
 }
 
 }  // namespace

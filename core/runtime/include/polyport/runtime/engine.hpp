@@ -112,9 +112,12 @@ class Engine {
   void unpublish(std::vector<std::unique_ptr<Connection>>::iterator connection);
   // Takes back what apply() made: connections from index `first` on, and the staged nodes.
   void roll_back(std::size_t first);
+  // Retires those of `contexts` no running node uses any more.
+  void retire_unused(const std::vector<ExecutionContext*>& contexts);
+  // `publish` false: made, but not yet in the ports' lists (the caller adds it when whole).
   Result<Connection*> connect_ports(Port& source, Port& target, std::optional<QueuePolicy> policy,
                                     std::optional<std::uint32_t> depth,
-                                    std::shared_ptr<const MappingProgram> mapping = nullptr);
+                                    std::shared_ptr<const MappingProgram> mapping = nullptr, bool publish = true);
   Result<void> add_watchdog(Connection& connection, const WatchdogSpec& spec);
   Result<void> add_rate_policies(Connection& connection, const ConnectionSpec& spec);
   Result<DataOutPort*> watchdog_events(const Connection& watched, const ConnectionEnd& end);

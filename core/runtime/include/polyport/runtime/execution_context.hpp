@@ -60,6 +60,13 @@ class ExecutionContext {
   void start(std::vector<std::string>& warnings);
   void stop();  // joins the thread; queued calls are cancelled
   bool running() const noexcept { return running_.load(std::memory_order_acquire); }
+  // Stopped for good: every component it ran left (a reload). Kept in memory (its members'
+  // interceptors, kept too, still point at it), no longer listed, started or shared.
+  void retire() {
+    stop();
+    retired_ = true;
+  }
+  bool retired() const noexcept { return retired_; }
 
   // Applies a lifecycle command on the context's thread (or inline when it is not running)
   // and waits for the result.
@@ -114,6 +121,7 @@ class ExecutionContext {
   bool realtime_applied_ = false;
   std::atomic<long> timer_slack_ns_{-1};
   bool pinned_ = false;
+  bool retired_ = false;
 };
 
 // Owns every execution context of an application. Periodic components with the same period,
@@ -123,8 +131,10 @@ class ExecutionContextPool {
  public:
   ExecutionContext& shared(const ExecutionSettings& settings);
   ExecutionContext& exclusive(const ExecutionSettings& settings);
-  // Starts the contexts not running yet. When one asks for a real-time policy, the process's
-  // memory is locked first (mlockall), where the limits allow; otherwise one warning.
+  // Starts the contexts not running yet (retired ones aside). At the first call, when one asks
+  // for a real-time policy, the process's memory is locked first (mlockall), where the limits
+  // allow; otherwise one warning. Later calls (a reload) never lock: locking the whole address
+  // space stalls every thread meanwhile; a real-time context they start gets a warning.
   void start_all(std::vector<std::string>& warnings);
   void stop_all();  // and unlocks the memory it locked
   bool memory_locked() const noexcept { return memory_locked_; }
@@ -136,6 +146,7 @@ class ExecutionContextPool {
   std::vector<std::unique_ptr<ExecutionContext>> contexts_;
   std::vector<bool> exclusive_;
   bool memory_locked_ = false;
+  bool lock_decided_ = false;  // the first start_all decided
 };
 
 }  // namespace polyport

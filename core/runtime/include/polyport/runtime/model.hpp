@@ -58,6 +58,9 @@ class Interceptor {
   // The component's current property values, when the model holds them (in-process); null
   // otherwise (the profile's values are what is known).
   virtual const std::map<std::string, std::string, std::less<>>* properties() const { return nullptr; }
+  // The execution context that runs the component, when polyport runs it (in-process); null
+  // otherwise. The engine retires a context whose components all left (a reload).
+  virtual ExecutionContext* execution_context() const noexcept { return nullptr; }
 };
 
 // The lifecycle commands of a foreign component that has none of its own (a DDS or LCM
