@@ -2,13 +2,13 @@
 # Builds polyport's .deb (cpack -G DEB) from a build folder and installs it into a clean
 # Debian 12 root made by debootstrap (minbase, Debian's own mirror from this machine's apt
 # sources), with apt-get inside the chroot fetching its dependencies from Debian; then runs
-# `polyportd --version` and `polyportd check` on the shipped wheelchair profile there.
+# `polyportd --version`, `polyportd check` and a one-second `polyportd run` of the shipped
+# wheelchair profile there.
 # The bare root is cached as BUILD/debian12-minbase.tar.gz, so a second run skips
 # debootstrap. Needs root (chroot, mounts) and network to the mirror.
 #   scripts/test_deb.sh [BUILD_DIR]     (default: build)
 set -euo pipefail
-cd "$(dirname "$0")/.."
-build=$(realpath "${1:-build}")
+build=$(realpath "${1:-$(dirname "$0")/../build}")
 fail() { echo "FAIL: $*" >&2; exit 1; }
 [ "$(id -u)" -eq 0 ] || fail "test_deb.sh needs root (debootstrap, chroot and mounting /proc); run it as root or with sudo"
 for tool in cpack debootstrap chroot; do
@@ -68,5 +68,9 @@ in_root polyportd --version || fail "polyportd --version in the root"
 in_root polyportd check /usr/share/polyport/profiles/wheelchair_inproc.xml >"$build/deb-check.log" 2>&1 ||
   { cat "$build/deb-check.log"; fail "polyportd check in the root"; }
 head -5 "$build/deb-check.log"
+# The installed plugin loads and runs from /usr/lib/polyport.
+in_root polyportd run /usr/share/polyport/profiles/wheelchair_inproc.xml --duration 1 --admin-socket none -q \
+  --stats-json /tmp/stats.json >"$build/deb-run.log" 2>&1 || { cat "$build/deb-run.log"; fail "polyportd run in the root"; }
+grep -q '"executions"' "$root/tmp/stats.json" || fail "no statistics from the run in the root"
 in_root polyportctl --help >/dev/null || fail "polyportctl --help in the root"
 echo "ok: the .deb installs in a clean Debian 12 root and polyportd runs ($(( $(date +%s) - t0 )) s)"
