@@ -29,6 +29,7 @@
 #include "polyport/runtime/engine.hpp"
 #include "polyport/profile/profile.hpp"
 #include "polyport/types/types.hpp"
+#include "sd_notify.hpp"
 #include "tracer.hpp"
 #include "types_command.hpp"
 
@@ -64,6 +65,18 @@ struct Options {
   std::string admin_socket;  // empty: the default path; "none": no admin socket
 };
 
+// The shipped plugins' folder: the build's lib/ for the binary of the build tree; for an
+// installed binary, the installation's plugin folder found from the binary's own place, so an
+// installed tree works under any prefix (cmake --install --prefix DIR, the .deb's /usr).
+std::filesystem::path shipped_plugin_dir() {
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) return POLYPORT_PLUGIN_DIR;
+  const std::filesystem::path bin = exe.parent_path();
+  if (std::filesystem::equivalent(bin, POLYPORT_BUILD_BIN_DIR, ec)) return POLYPORT_PLUGIN_DIR;
+  return (bin / POLYPORT_INSTALLED_PLUGIN_DIR).lexically_normal();
+}
+
 std::vector<std::filesystem::path> library_path(const Options& options) {
   std::vector<std::filesystem::path> out(options.library_path.begin(), options.library_path.end());
   if (const char* env = std::getenv("POLYPORT_LIBRARY_PATH")) {
@@ -73,7 +86,7 @@ std::vector<std::filesystem::path> library_path(const Options& options) {
       if (!entry.empty()) out.emplace_back(entry);
     }
   }
-  out.emplace_back(POLYPORT_PLUGIN_DIR);
+  out.emplace_back(shipped_plugin_dir());
   return out;
 }
 
@@ -486,12 +499,15 @@ int run_daemon(const Options& options) {
   const auto t_start = Clock::now();
   auto next_summary = t_start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.stats_interval_s));
   const bool summaries = !options.quiet && options.stats_interval_s > 0;
+  daemon::ServiceNotifier systemd;  // under a Type=notify unit: READY, WATCHDOG, STOPPING
+  systemd.ready("running " + options.profiles.front());
   int stop_signal = 0;
   while (stop_signal == 0) {
-    // Wake often enough to drain traces; otherwise sleep until the next summary.
-    // Admin requests wake it at once.
+    // Wake often enough to drain traces and ping systemd's watchdog; otherwise sleep until
+    // the next summary. Admin requests wake it at once.
     pollfd fds[2] = {{signal_fd, POLLIN, 0}, {admin.request_fd(), POLLIN, 0}};
-    ::poll(fds, admin.request_fd() >= 0 ? 2 : 1, tracer.active() ? 100 : 500);
+    const auto wait = systemd.wait_at_most(Clock::now(), std::chrono::milliseconds(tracer.active() ? 100 : 500));
+    ::poll(fds, admin.request_fd() >= 0 ? 2 : 1, static_cast<int>(wait.count()));
     signalfd_siginfo info{};
     while (::read(signal_fd, &info, sizeof info) == static_cast<ssize_t>(sizeof info)) {
       const int signal = static_cast<int>(info.ssi_signo);
@@ -514,6 +530,7 @@ int run_daemon(const Options& options) {
     }
     if (tracer.active()) tracer.drain();
     const auto now = Clock::now();
+    systemd.ping_if_due(now);
     if (summaries && now >= next_summary) {
       spdlog::info("{}", engine.summary_line());
       next_summary += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.stats_interval_s));
@@ -521,6 +538,7 @@ int run_daemon(const Options& options) {
     if (options.duration_s > 0 && now - t_start >= std::chrono::duration<double>(options.duration_s)) break;
   }
   spdlog::info("stopping ({})", stop_signal ? strsignal(stop_signal) : "duration reached");
+  systemd.stopping(stop_signal ? std::string("stopping: ") + strsignal(stop_signal) : "stopping: duration reached");
   ::close(signal_fd);
   admin.stop();
   engine.stop();

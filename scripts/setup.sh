@@ -18,6 +18,8 @@ packages=(
   liblcm-dev liblcm-bin  # LCM 1.3 (the lcm model) and lcm-gen: test peers, reference fingerprints
   clang libclang-rt-14-dev  # libFuzzer for the parser and decoder fuzz targets
   python3-matplotlib python3-numpy  # the wheelchair suite's report: tables and PNG plots
+  libsystemd-dev         # sd_notify: polyportd under a Type=notify unit with the watchdog
+  debootstrap            # scripts/test_deb.sh: a clean Debian 12 root to install the .deb in
   # The vm tests (scripts/vcan-run installs these itself when missing; here CI has them up front):
   user-mode-linux        # a Linux kernel run as a process, with CAN modules: the host kernel has no CAN
   busybox-static         # the UML guest's init: mounts, insmod and ip without dynamic execs
