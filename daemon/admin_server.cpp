@@ -9,6 +9,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -214,12 +215,19 @@ void AdminServer::serve(const Handler& handler, const Left& left) {
     } catch (const std::exception& e) {
       reply = admin::error_reply(p.request.id, admin::kRefused, std::string("internal error: ") + e.what());
     }
-    std::lock_guard lock(mutex_);
-    if (reply.empty()) {
-      streams_.insert(p.client);  // kStreaming: send() answers
-    } else {
-      replies_.push_back(Reply{p.client, std::move(reply), true});
+    bool departed = false;
+    {
+      std::lock_guard lock(mutex_);
+      departed = departed_.erase(p.client) > 0;
+      if (departed) {
+        // Nobody to answer; a stream just opened for it ends at once.
+      } else if (reply.empty()) {
+        streams_.insert(p.client);  // kStreaming: send() answers
+      } else {
+        replies_.push_back(Reply{p.client, std::move(reply), true});
+      }
     }
+    if (departed && reply.empty() && left) left(p.client);
   }
   wake(wake_fd_);
 }
@@ -353,6 +361,8 @@ void AdminServer::loop() {
         if (streams_.erase(id) > 0) {
           left_.push_back(id);
           streams_left = true;
+        } else if (std::none_of(replies_.begin(), replies_.end(), [id](const Reply& r) { return r.client == id && r.last; })) {
+          departed_.insert(id);  // its request waits for serve(), or is being answered
         }
       }
       clients.erase(it);

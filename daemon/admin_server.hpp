@@ -96,6 +96,9 @@ class AdminServer {
   std::deque<Reply> replies_;
   std::set<std::uint64_t> streams_;  // clients with a streamed reply open
   std::vector<std::uint64_t> left_;  // of those, the ones that left (for serve())
+  // Clients that left while their request waited for serve(): a stream it would open for one
+  // is closed at once.
+  std::set<std::uint64_t> departed_;
 };
 
 // The group of --admin-group: a group name, or a numeric gid.
