@@ -1,6 +1,7 @@
 #include "admin_server.hpp"
 
 #include <errno.h>
+#include <grp.h>
 #include <poll.h>
 #include <sys/eventfd.h>
 #include <sys/socket.h>
@@ -8,8 +9,12 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <map>
+#include <sstream>
 #include <memory>
 #include <vector>
 
@@ -63,7 +68,52 @@ bool flush(Client& c) {
   return c.out.size() - c.sent <= AdminServer::kMaxOutput;
 }
 
+// Whether the peer on `fd` (credentials `peer`) has `group` among its groups: its gid, or a
+// supplementary group as the kernel recorded them at connect (SO_PEERGROUPS), or, on a kernel
+// without that option, as /proc/<pid>/status lists them now.
+bool peer_in_group(int fd, const ucred& peer, gid_t group) {
+  if (peer.gid == group) return true;
+  std::vector<gid_t> groups(64);
+  for (int attempt = 0; attempt < 4; ++attempt) {
+    socklen_t size = static_cast<socklen_t>(groups.size() * sizeof(gid_t));
+    if (::getsockopt(fd, SOL_SOCKET, SO_PEERGROUPS, groups.data(), &size) == 0) {
+      groups.resize(size / sizeof(gid_t));
+      for (gid_t g : groups) {
+        if (g == group) return true;
+      }
+      return false;
+    }
+    if (errno != ERANGE) break;
+    groups.resize(size / sizeof(gid_t) + 1);
+  }
+  std::ifstream status("/proc/" + std::to_string(peer.pid) + "/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("Groups:", 0) != 0) continue;
+    std::istringstream list(line.substr(7));
+    unsigned long g = 0;
+    while (list >> g) {
+      if (g == group) return true;
+    }
+  }
+  return false;
+}
+
 }  // namespace
+
+Result<gid_t> admin_group(const std::string& name) {
+  if (name.empty()) return make_error("--admin-group: an empty group name");
+  // A name first; all digits and no such name: a gid.
+  std::vector<char> buffer(16384);
+  group entry{};
+  group* found = nullptr;
+  const int rc = ::getgrnam_r(name.c_str(), &entry, buffer.data(), buffer.size(), &found);
+  if (rc == 0 && found != nullptr) return found->gr_gid;
+  if (name.find_first_not_of("0123456789") == std::string::npos && name.size() < 10) {
+    return static_cast<gid_t>(std::strtoul(name.c_str(), nullptr, 10));
+  }
+  return make_error("--admin-group: no group named '" + name + "'");
+}
 
 Result<std::string> default_admin_socket() {
   const std::string dir = admin::default_socket_dir();
@@ -76,7 +126,8 @@ Result<std::string> default_admin_socket() {
 
 AdminServer::~AdminServer() { stop(); }
 
-Result<void> AdminServer::start(const std::string& path) {
+Result<void> AdminServer::start(const std::string& path, std::optional<gid_t> group) {
+  group_ = group;
   sockaddr_un address{};
   address.sun_family = AF_UNIX;
   if (path.size() >= sizeof address.sun_path) {
@@ -96,8 +147,10 @@ Result<void> AdminServer::start(const std::string& path) {
   }
   listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (listen_fd_ < 0) return make_error("admin socket: " + errno_text());
-  // Created 0600 from the start (umask), not chmod-ed after: no window where others may connect.
-  const mode_t old_mask = ::umask(0177);
+  // Created 0600 (0660 with a group) from the start (umask), not chmod-ed after: no window
+  // where others may connect. The group is given to it right after: until then the group is
+  // the daemon's own, whose members the daemon's user trusts anyway.
+  const mode_t old_mask = ::umask(group ? 0117 : 0177);
   const int bound = ::bind(listen_fd_, reinterpret_cast<sockaddr*>(&address), sizeof address);
   const int bind_errno = errno;
   ::umask(old_mask);
@@ -107,7 +160,12 @@ Result<void> AdminServer::start(const std::string& path) {
     return make_error("cannot create the admin socket '" + path + "': " + std::strerror(bind_errno));
   }
   path_ = path;
-  if (::chmod(path.c_str(), 0600) != 0 || ::listen(listen_fd_, 16) != 0) {
+  if (group && ::chown(path.c_str(), static_cast<uid_t>(-1), *group) != 0) {
+    const std::string why = errno_text();
+    stop();
+    return make_error("admin socket '" + path + "': cannot give it to group " + std::to_string(*group) + ": " + why);
+  }
+  if (::chmod(path.c_str(), group ? 0660 : 0600) != 0 || ::listen(listen_fd_, 16) != 0) {
     const std::string why = errno_text();
     stop();
     return make_error("admin socket '" + path + "': " + why);
@@ -137,23 +195,48 @@ void AdminServer::stop() {
   path_.clear();
 }
 
-void AdminServer::serve(const Handler& handler) {
+void AdminServer::serve(const Handler& handler, const Left& left) {
   drain_eventfd(request_fd_);
   std::deque<Pending> work;
+  std::vector<std::uint64_t> gone;
   {
     std::lock_guard lock(mutex_);
     work.swap(requests_);
+    gone.swap(left_);
+  }
+  if (left) {
+    for (std::uint64_t client : gone) left(client);
   }
   if (work.empty()) return;
   for (Pending& p : work) {
     std::string reply;
     try {
-      reply = handler(p.request);
+      reply = handler(p.request, p.client);
     } catch (const std::exception& e) {
       reply = admin::error_reply(p.request.id, admin::kRefused, std::string("internal error: ") + e.what());
     }
+    bool departed = false;
+    {
+      std::lock_guard lock(mutex_);
+      departed = departed_.erase(p.client) > 0;
+      if (departed) {
+        // Nobody to answer; a stream just opened for it ends at once.
+      } else if (reply.empty()) {
+        streams_.insert(p.client);  // kStreaming: send() answers
+      } else {
+        replies_.push_back(Reply{p.client, std::move(reply), true});
+      }
+    }
+    if (departed && reply.empty() && left) left(p.client);
+  }
+  wake(wake_fd_);
+}
+
+void AdminServer::send(std::uint64_t client, std::string lines, bool last) {
+  {
     std::lock_guard lock(mutex_);
-    replies_.emplace_back(p.client, std::move(reply));
+    if (last) streams_.erase(client);
+    replies_.push_back(Reply{client, std::move(lines), last});
   }
   wake(wake_fd_);
 }
@@ -216,18 +299,24 @@ void AdminServer::loop() {
     std::vector<std::uint64_t> cut;
     if (fds[1].revents & POLLIN) {
       drain_eventfd(wake_fd_);
-      std::deque<std::pair<std::uint64_t, std::string>> replies;
+      std::deque<Reply> replies;
       {
         std::lock_guard lock(mutex_);
         replies.swap(replies_);
       }
-      for (auto& [id, reply] : replies) {
-        auto it = clients.find(id);
+      for (Reply& reply : replies) {
+        auto it = clients.find(reply.client);
         if (it == clients.end()) continue;  // the client left meanwhile
         Client& c = *it->second;
-        c.out += reply;
+        c.out += reply.text;
+        if (!reply.last) {
+          // A streamed line: the request stays in flight. A client that does not read is cut
+          // off here once kMaxOutput waits for it; nothing is held back for it.
+          if (!flush(c)) cut.push_back(reply.client);
+          continue;
+        }
         c.in_flight = false;
-        if (!take_lines(c)) cut.push_back(id);
+        if (!take_lines(c)) cut.push_back(reply.client);
       }
     }
     for (std::size_t i = 0; i < polled.size(); ++i) {
@@ -259,6 +348,7 @@ void AdminServer::loop() {
     for (auto& [id, c] : clients) {
       if (c->closing && c->sent == c->out.size() && !c->in_flight) cut.push_back(id);
     }
+    bool streams_left = false;
     for (std::uint64_t id : cut) {
       auto it = clients.find(id);
       if (it == clients.end()) continue;
@@ -266,8 +356,18 @@ void AdminServer::loop() {
       if (c.out.size() - c.sent > kMaxOutput) {
         spdlog::warn("admin socket: a client left {} bytes of replies unread; cut off", c.out.size() - c.sent);
       }
+      if (c.in_flight) {
+        std::lock_guard lock(mutex_);
+        if (streams_.erase(id) > 0) {
+          left_.push_back(id);
+          streams_left = true;
+        } else if (std::none_of(replies_.begin(), replies_.end(), [id](const Reply& r) { return r.client == id && r.last; })) {
+          departed_.insert(id);  // its request waits for serve(), or is being answered
+        }
+      }
       clients.erase(it);
     }
+    if (streams_left) wake(request_fd_);
 
     if (fds[0].revents & POLLIN) {
       for (;;) {
@@ -281,11 +381,12 @@ void AdminServer::loop() {
         if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &peer, &size) != 0) {
           c->out = admin::error_reply(nullptr, admin::kAccessDenied, "access denied: cannot read the peer's credentials");
           c->closing = true;
-        } else if (peer.uid != own_uid && peer.uid != 0) {
+        } else if (peer.uid != own_uid && peer.uid != 0 && !(group_ && peer_in_group(fd, peer, *group_))) {
           spdlog::warn("admin socket: refused a connection from uid {} (pid {})", peer.uid, peer.pid);
-          c->out = admin::error_reply(nullptr, admin::kAccessDenied,
-                                      "access denied: uid " + std::to_string(peer.uid) +
-                                          " is neither the daemon's uid (" + std::to_string(own_uid) + ") nor root");
+          std::string why = "access denied: uid " + std::to_string(peer.uid) + " is neither the daemon's uid (" +
+                            std::to_string(own_uid) + ") nor root";
+          if (group_) why += ", and not in the allowed group (gid " + std::to_string(*group_) + ")";
+          c->out = admin::error_reply(nullptr, admin::kAccessDenied, why);
           c->closing = true;
         } else if (clients.size() >= kMaxClients) {
           c->out = admin::error_reply(nullptr, admin::kRefused,

@@ -1,7 +1,9 @@
 // polyportctl: talks to a running polyportd through its admin socket (docs/CONTROL.md).
 //
 // One request, one reply: connects, sends the request line, waits (poll, with a deadline)
-// for the reply line, prints it as a table (or as JSON with --json).
+// for the reply line, prints it as a table (or as JSON with --json). Two commands keep the
+// connection: `stats --watch` asks again every interval, `trace` reads the streamed reply
+// (sample lines, then a final reply) until its count or duration is reached or Ctrl-C.
 //
 // Exit codes (also in --help):
 //   0  done
@@ -21,8 +23,11 @@
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <map>
+#include <optional>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <tuple>
 #include <vector>
 
@@ -90,48 +95,78 @@ std::string find_socket() {
   return found.front();
 }
 
-json call(const std::string& path, const std::string& request, std::chrono::milliseconds limit) {
+// A connection to the daemon, closed when it goes.
+struct Connection {
+  int fd = -1;
+  std::string path;
+  polyport::admin::LineBuffer in{64u << 20};
+  Connection() = default;
+  Connection(const Connection&) = delete;
+  Connection& operator=(const Connection&) = delete;
+  ~Connection() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+void open_connection(Connection& c, const std::string& path) {
   sockaddr_un address{};
   address.sun_family = AF_UNIX;
   if (path.size() >= sizeof address.sun_path) throw Failure{kExitUsage, "socket path too long: " + path};
   std::memcpy(address.sun_path, path.c_str(), path.size() + 1);
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  c.path = path;
+  c.fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  const int fd = c.fd;
   if (fd < 0) throw Failure{kExitNoDaemon, std::string("socket: ") + std::strerror(errno)};
-  struct Closer {
-    int fd;
-    ~Closer() { ::close(fd); }
-  } closer{fd};
   if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
     const int e = errno;
     if (e == EACCES || e == EPERM) throw Failure{kExitNoDaemon, "access denied to " + path + ": " + std::strerror(e)};
     if (e == ENOENT || e == ECONNREFUSED) throw Failure{kExitNoDaemon, "no daemon listens on " + path};
     throw Failure{kExitNoDaemon, "cannot connect to " + path + ": " + std::strerror(e)};
   }
+}
+
+void send_request(Connection& c, const std::string& request) {
   // The request is small; a refused peer may have closed already, which the reply tells.
-  [[maybe_unused]] ssize_t sent = ::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
-  polyport::admin::LineBuffer in(64u << 20);
+  [[maybe_unused]] ssize_t sent = ::send(c.fd, request.data(), request.size(), MSG_NOSIGNAL);
+}
+
+// The next reply line; without `limit`, waits as long as it takes.
+json next_reply(Connection& c, std::optional<std::chrono::milliseconds> limit) {
   std::string line;
   char buffer[65536];
-  const auto deadline = std::chrono::steady_clock::now() + limit;
+  const auto deadline = std::chrono::steady_clock::now() + limit.value_or(std::chrono::milliseconds(0));
   for (;;) {
-    if (in.next(line) == polyport::admin::LineBuffer::Next::line) break;
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-    if (left.count() <= 0) throw Failure{kExitNoDaemon, "no reply from " + path + " within " + std::to_string(limit.count()) + " ms"};
-    pollfd p{fd, POLLIN, 0};
-    if (::poll(&p, 1, static_cast<int>(left.count())) < 0 && errno != EINTR) {
+    if (c.in.next(line) == polyport::admin::LineBuffer::Next::line) break;
+    int wait_ms = -1;
+    if (limit) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+      if (left.count() <= 0) {
+        throw Failure{kExitNoDaemon, "no reply from " + c.path + " within " + std::to_string(limit->count()) + " ms"};
+      }
+      wait_ms = static_cast<int>(left.count());
+    }
+    pollfd p{c.fd, POLLIN, 0};
+    if (::poll(&p, 1, wait_ms) < 0 && errno != EINTR) {
       throw Failure{kExitNoDaemon, std::string("poll: ") + std::strerror(errno)};
     }
     if (p.revents == 0) continue;
-    const ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
+    const ssize_t n = ::recv(c.fd, buffer, sizeof buffer, 0);
     if (n > 0) {
-      in.append(buffer, static_cast<std::size_t>(n));
+      c.in.append(buffer, static_cast<std::size_t>(n));
     } else if (n == 0 || (errno != EINTR && errno != EAGAIN)) {
-      throw Failure{kExitNoDaemon, "the daemon closed the connection on " + path + " without a reply"};
+      throw Failure{kExitNoDaemon, "the daemon closed the connection on " + c.path + " without a reply"};
     }
   }
   json reply = json::parse(line, nullptr, false);
   if (reply.is_discarded() || !reply.is_object()) throw Failure{kExitNoDaemon, "the reply is not JSON: " + line.substr(0, 200)};
   return reply;
+}
+
+json call(const std::string& path, const std::string& request, std::chrono::milliseconds limit) {
+  Connection c;
+  open_connection(c, path);
+  send_request(c, request);
+  return next_reply(c, limit);
 }
 
 std::string text(const json& j, const char* key) {
@@ -226,6 +261,109 @@ void print_stats(const json& s, std::ostream& out) {
   }
 }
 
+// `stats --watch`: one compact table per interval over one connection, the screen cleared
+// before each on a terminal; otherwise the tables follow one another (a log, or a test).
+// Rates are per second of the daemon's run time between two samples.
+int watch_stats(const std::string& path, double interval_s, std::chrono::milliseconds limit) {
+  const bool terminal = ::isatty(STDOUT_FILENO) == 1;
+  Connection c;
+  open_connection(c, path);
+  struct Seen {
+    std::uint64_t received;
+    std::uint64_t delivered;
+  };
+  std::map<std::string, Seen> previous;
+  double previous_t = 0;
+  const auto interval = std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(interval_s));
+  auto next = std::chrono::steady_clock::now();
+  for (std::int64_t n = 1;; ++n) {
+    json reply;
+    try {
+      send_request(c, polyport::admin::request_line(n, Command::stats));
+      reply = next_reply(c, limit);
+    } catch (const Failure& f) {
+      throw Failure{kExitNoDaemon, "the daemon went away (" + f.message + ")"};
+    }
+    if (!reply.value("ok", false)) {
+      throw Failure{reply.value("code", "") == polyport::admin::kAccessDenied ? kExitNoDaemon : kExitRefused,
+                    reply.value("error", "the daemon refused the request")};
+    }
+    const json& s = reply["result"];
+    const double t = s.value("run_seconds", 0.0);
+    const double dt = t - previous_t;
+    std::ostringstream out;
+    out << "application " << text(s, "application") << ", running " << std::fixed << std::setprecision(1) << t
+        << " s, every " << std::setprecision(1) << interval_s << " s" << (terminal ? " (Ctrl-C stops)" : "") << "\n";
+    std::vector<std::vector<std::string>> rows{
+        {"CONNECTION", "RECEIVED", "DELIVERED", "DROPS", "RX/S", "DLV/S", "P50_NS", "P99_NS", "MAX_NS"}};
+    std::map<std::string, Seen> seen;
+    for (const auto& k : s.value("connections", json::array())) {
+      if (k.value("probe", false)) continue;  // trace probes are the daemon's own
+      const bool removed = k.value("removed", false);
+      const std::string name = text(k, "name") + (removed ? " (removed)" : "");
+      const Seen now{k.value("received", std::uint64_t{0}), k.value("delivered", std::uint64_t{0})};
+      seen[name] = now;
+      std::string rx = "-", dlv = "-";
+      if (const auto it = previous.find(name); it != previous.end() && dt > 0) {
+        std::ostringstream a, b;
+        a << std::fixed << std::setprecision(1) << static_cast<double>(now.received - it->second.received) / dt;
+        b << std::fixed << std::setprecision(1) << static_cast<double>(now.delivered - it->second.delivered) / dt;
+        rx = a.str();
+        dlv = b.str();
+      }
+      const json h = k.value("latency_ns", json::object());
+      rows.push_back({name, std::to_string(now.received), std::to_string(now.delivered), text(k, "dropped"), rx, dlv,
+                      text(h, "p50"), text(h, "p99"), text(h, "max")});
+    }
+    table(out, rows);
+    previous = std::move(seen);
+    previous_t = t;
+    if (terminal) std::cout << "\033[H\033[2J";
+    std::cout << out.str();
+    if (!terminal) std::cout << "\n";
+    std::cout << std::flush;
+    next += interval;
+    const auto now = std::chrono::steady_clock::now();
+    if (next < now) next = now;  // a slow reply: no burst to catch up
+    std::this_thread::sleep_until(next);
+  }
+}
+
+// `trace`: prints each sample of the streamed reply as it comes, until the final reply.
+int trace(const std::string& path, const std::string& request, bool as_json) {
+  Connection c;
+  open_connection(c, path);
+  send_request(c, request);
+  for (;;) {
+    json reply;
+    try {
+      reply = next_reply(c, std::nullopt);
+    } catch (const Failure& f) {
+      throw Failure{f.code, "the daemon went away (" + f.message + ")"};
+    }
+    if (!reply.value("ok", false)) {
+      std::cerr << "polyportctl: " << reply.value("error", "the daemon refused the request") << "\n";
+      return reply.value("code", "") == polyport::admin::kAccessDenied ? kExitNoDaemon : kExitRefused;
+    }
+    if (const auto sample = reply.find("sample"); sample != reply.end()) {
+      if (as_json) {
+        std::cout << sample->dump() << "\n";
+      } else {
+        std::cout << std::fixed << std::setprecision(6) << sample->value("t_ns", std::int64_t{0}) / 1e9 << "  "
+                  << text(*sample, "port") << "  " << sample->value("value", json()).dump() << "\n";
+      }
+      std::cout << std::flush;
+      continue;
+    }
+    const json& result = reply["result"];
+    if (!as_json) {
+      std::cerr << "polyportctl: " << text(result, "samples") << " sample(s) of " << text(result, "port") << ", "
+                << text(result, "lost") << " lost (" << text(result, "end") << " reached)\n";
+    }
+    return kExitOk;
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -246,8 +384,16 @@ int main(int argc, char** argv) {
   commands.emplace_back(app.add_subcommand("hello", "the daemon's version, pid, application and profiles"), Command::hello);
   commands.emplace_back(app.add_subcommand("list", "components (model, state), ports, connections (policy, conversion)"),
                         Command::list);
-  commands.emplace_back(app.add_subcommand("stats", "the live statistics (the JSON of polyportd run --stats-json)"),
-                        Command::stats);
+  CLI::App* stats = app.add_subcommand("stats", "the live statistics (the JSON of polyportd run --stats-json)");
+  bool watch = false;
+  double interval_s = 1.0;
+  stats->add_flag("--watch", watch,
+                  "redraw a table of every connection's counts, rates, p50 / p99 / max each interval until Ctrl-C "
+                  "(one table after another when stdout is not a terminal)");
+  stats->add_option("--interval", interval_s, "seconds between two tables of --watch")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 86400.0));
+  commands.emplace_back(stats, Command::stats);
   for (auto [name, command, help] : {std::tuple{"activate", Command::activate, "activate COMPONENT"},
                                      std::tuple{"deactivate", Command::deactivate, "deactivate COMPONENT"},
                                      std::tuple{"reset", Command::reset, "reset COMPONENT (from its error state)"}}) {
@@ -285,6 +431,16 @@ int main(int argc, char** argv) {
   commands.emplace_back(disconnect, Command::disconnect);
   commands.emplace_back(app.add_subcommand("reload", "re-read the daemon's profiles and apply what changed (docs/CONTROL.md)"),
                         Command::reload);
+  CLI::App* trace_command =
+      app.add_subcommand("trace", "print an output port's samples, decoded, as they pass (until --count, --duration or Ctrl-C)");
+  trace_command->add_option("port", request.port, "output data port, COMPONENT.PORT")->required()->check(port_path);
+  std::int64_t count = 0;
+  double duration_s = 0;
+  CLI::Option* count_option =
+      trace_command->add_option("--count", count, "stop after N samples")->check(CLI::Range(std::int64_t{1}, INT64_MAX));
+  CLI::Option* duration_option =
+      trace_command->add_option("--duration", duration_s, "stop after SEC seconds")->check(CLI::Range(0.001, 1e9));
+  commands.emplace_back(trace_command, Command::trace);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -297,9 +453,13 @@ int main(int argc, char** argv) {
   }
   request.command = command;
   if (depth_option->count() > 0) request.depth = depth;
+  if (count_option->count() > 0) request.count = count;
+  if (duration_option->count() > 0) request.duration_s = duration_s;
   try {
     if (socket_path.empty()) socket_path = find_socket();
     const auto limit = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
+    if (command == Command::stats && watch) return watch_stats(socket_path, interval_s, limit);
+    if (command == Command::trace) return trace(socket_path, polyport::admin::request_line(request), as_json);
     const json reply = call(socket_path, polyport::admin::request_line(request), limit);
     if (!reply.value("ok", false)) {
       const std::string code = reply.value("code", "");

@@ -63,6 +63,7 @@ struct Options {
   std::string trace_file = "polyport-trace.jsonl";
   std::uint32_t trace_depth = 4096;
   std::string admin_socket;  // empty: the default path; "none": no admin socket
+  std::string admin_group;   // empty: none; else a group (name or gid) whose members may connect
 };
 
 // The shipped plugins' folder: the build's lib/ for the binary of the build tree; for an
@@ -344,11 +345,17 @@ nlohmann::json collect_stats(const Engine& engine, const Options& options, std::
 }
 
 // Answers an admin request; runs on the engine's control thread (this main thread).
-std::string answer(const admin::Request& request, Engine& engine, daemon::ControlRequests& control,
-                   const daemon::ProfileReader& read, const Options& options,
-                   std::chrono::steady_clock::time_point t_start) {
+std::string answer(const admin::Request& request, std::uint64_t client, Engine& engine,
+                   daemon::ControlRequests& control, daemon::TraceStreams& traces, const daemon::ProfileReader& read,
+                   const Options& options, std::chrono::steady_clock::time_point t_start) {
   using admin::Command;
   switch (request.command) {
+    case Command::trace: {
+      // Streamed: samples follow as the main loop drains the probe (TraceStreams::drain).
+      std::optional<std::string> refused =
+          traces.open(engine, client, request.id, request.port, request.count, request.duration_s);
+      return refused ? *refused : daemon::AdminServer::kStreaming;
+    }
     case Command::hello: {
       nlohmann::json graph;
       engine.describe(graph);
@@ -450,6 +457,16 @@ int run_daemon(const Options& options) {
 
   // Before the engine's threads start: creating the socket sets the process's umask briefly.
   daemon::AdminServer admin;
+  daemon::TraceStreams traces;
+  std::optional<gid_t> admin_group;
+  if (!options.admin_group.empty()) {
+    Result<gid_t> group = daemon::admin_group(options.admin_group);
+    if (!group) {
+      spdlog::error("{}", group.error().message);
+      return kExitUsage;
+    }
+    admin_group = group.value();
+  }
   if (options.admin_socket != "none") {
     std::string path = options.admin_socket;
     // The default place may be out of reach (no /run/polyport for a user without
@@ -462,7 +479,7 @@ int run_daemon(const Options& options) {
       else spdlog::warn("no admin socket: {}", fallback.error().message);
     }
     if (!path.empty()) {
-      if (auto listening = admin.start(path); !listening) {
+      if (auto listening = admin.start(path, admin_group); !listening) {
         if (chosen) {
           spdlog::error("{} (--admin-socket none runs without one)", listening.error().message);
           return kExitRuntime;
@@ -506,7 +523,7 @@ int run_daemon(const Options& options) {
     // Wake often enough to drain traces and ping systemd's watchdog; otherwise sleep until
     // the next summary. Admin requests wake it at once.
     pollfd fds[2] = {{signal_fd, POLLIN, 0}, {admin.request_fd(), POLLIN, 0}};
-    const auto wait = systemd.wait_at_most(Clock::now(), std::chrono::milliseconds(tracer.active() ? 100 : 500));
+    const auto wait = systemd.wait_at_most(Clock::now(), std::chrono::milliseconds(tracer.active() || traces.active() ? 100 : 500));
     ::poll(fds, admin.request_fd() >= 0 ? 2 : 1, static_cast<int>(wait.count()));
     signalfd_siginfo info{};
     while (::read(signal_fd, &info, sizeof info) == static_cast<ssize_t>(sizeof info)) {
@@ -526,9 +543,18 @@ int run_daemon(const Options& options) {
       }
     }
     if (admin.request_fd() >= 0 && (fds[1].revents & POLLIN)) {
-      admin.serve([&](const admin::Request& request) { return answer(request, engine, control, read, options, t_start); });
+      admin.serve(
+          [&](const admin::Request& request, std::uint64_t client) {
+            return answer(request, client, engine, control, traces, read, options, t_start);
+          },
+          [&](std::uint64_t client) { traces.close(engine, client); });
     }
     if (tracer.active()) tracer.drain();
+    if (traces.active()) {
+      traces.drain(engine, [&](std::uint64_t client, std::string lines, bool last) {
+        admin.send(client, std::move(lines), last);
+      });
+    }
     const auto now = Clock::now();
     systemd.ping_if_due(now);
     if (summaries && now >= next_summary) {
@@ -590,6 +616,8 @@ int main(int argc, char** argv) {
   run->add_option("--admin-socket", options.admin_socket,
                   "Unix socket for polyportctl (mode 0600; default $XDG_RUNTIME_DIR/polyport/polyportd-<pid>.sock, "
                   "or /run/polyport/... without XDG_RUNTIME_DIR; 'none': no socket); see docs/CONTROL.md");
+  run->add_option("--admin-group", options.admin_group,
+                  "also admit members of GROUP (a name or a gid) to the admin socket (then mode 0660, owned by GROUP)");
 
   CLI::App* check = app.add_subcommand("check", "validate PROFILE(s) and print the resolved graph");
   check->add_option("profiles", options.profiles, "application profile(s)")->required();

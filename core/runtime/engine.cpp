@@ -739,4 +739,13 @@ std::string Engine::summary_line() const {
   return line;
 }
 
+Result<void> Engine::remove_probe(const DataInPort* probe) {
+  for (auto it = connections_.begin(); it != connections_.end(); ++it) {
+    if (&(*it)->target() != probe || &(*it)->target().owner() != probes_.get()) continue;
+    unpublish(it);
+    return {};
+  }
+  return make_error("no such probe");
+}
+
 }  // namespace polyport

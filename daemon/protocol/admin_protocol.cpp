@@ -8,7 +8,7 @@
 namespace polyport::admin {
 namespace {
 
-constexpr std::array<std::pair<std::string_view, Command>, 11> kCommands{{
+constexpr std::array<std::pair<std::string_view, Command>, 12> kCommands{{
     {"hello", Command::hello},
     {"list", Command::list},
     {"stats", Command::stats},
@@ -20,6 +20,7 @@ constexpr std::array<std::pair<std::string_view, Command>, 11> kCommands{{
     {"connect", Command::connect},
     {"disconnect", Command::disconnect},
     {"reload", Command::reload},
+    {"trace", Command::trace},
 }};
 
 // The fields a request may carry besides v, id and cmd.
@@ -31,8 +32,11 @@ enum Field : unsigned {
   kTarget = 1u << 4,
   kPolicy = 1u << 5,
   kDepth = 1u << 6,
+  kPort = 1u << 7,
+  kCount = 1u << 8,
+  kDuration = 1u << 9,
 };
-constexpr std::array<std::pair<const char*, Field>, 7> kFields{{
+constexpr std::array<std::pair<const char*, Field>, 10> kFields{{
     {"component", kComponent},
     {"property", kProperty},
     {"value", kValue},
@@ -40,6 +44,9 @@ constexpr std::array<std::pair<const char*, Field>, 7> kFields{{
     {"target", kTarget},
     {"policy", kPolicy},
     {"depth", kDepth},
+    {"port", kPort},
+    {"count", kCount},
+    {"duration", kDuration},
 }};
 
 struct Shape {
@@ -66,6 +73,8 @@ Shape shape_of(Command command) noexcept {
       return {kSource | kTarget, kPolicy | kDepth};
     case Command::disconnect:
       return {kSource | kTarget, 0};
+    case Command::trace:
+      return {kPort, kCount | kDuration};
   }
   return {0, 0};
 }
@@ -101,6 +110,26 @@ bool read_field(Field field, const nlohmann::json& v, Request& request, std::str
     case kPolicy: return text(request.policy, "policy");
     case kSource: return port(request.source, "source");
     case kTarget: return port(request.target, "target");
+    case kPort: return port(request.port, "port");
+    case kCount:
+      if (v.is_number_unsigned() && v.get<std::uint64_t>() >= 1 && v.get<std::uint64_t>() <= static_cast<std::uint64_t>(INT64_MAX)) {
+        request.count = static_cast<std::int64_t>(v.get<std::uint64_t>());
+        return true;
+      }
+      if (v.is_number_integer() && !v.is_number_unsigned() && v.get<std::int64_t>() >= 1) {
+        request.count = v.get<std::int64_t>();
+        return true;
+      }
+      message = "\"count\" must be an integer of at least 1";
+      return false;
+    case kDuration:
+      // Up to about 31 years: a bound that keeps the deadline arithmetic in range.
+      if (v.is_number() && v.get<double>() > 0 && v.get<double>() <= 1e9) {
+        request.duration_s = v.get<double>();
+        return true;
+      }
+      message = "\"duration\" must be a number of seconds, more than 0 (at most 1e9)";
+      return false;
     case kValue:
       if (v.is_string()) request.value = v.get<std::string>();
       else if (v.is_boolean() || v.is_number()) request.value = v.dump();
@@ -233,6 +262,17 @@ std::string error_reply(const nlohmann::json& id, std::string_view code, std::st
   return dump({{"v", kProtocolVersion}, {"id", id}, {"ok", false}, {"code", code}, {"error", message}});
 }
 
+std::string sample_line(const nlohmann::json& id, std::int64_t t_ns, std::string_view port, std::string_view value_json) {
+  std::string line = "{\"v\":" + std::to_string(kProtocolVersion) + ",\"id\":";
+  line += id.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  line += ",\"ok\":true,\"sample\":{\"t_ns\":" + std::to_string(t_ns) + ",\"port\":";
+  line += nlohmann::json(std::string(port)).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  line += ",\"value\":";
+  line += value_json.empty() ? std::string_view("null") : value_json;
+  line += "}}\n";
+  return line;
+}
+
 std::string request_line(const Request& request) {
   nlohmann::json j{{"v", kProtocolVersion}, {"id", request.id}, {"cmd", to_string(request.command)}};
   const Shape shape = shape_of(request.command);
@@ -246,6 +286,9 @@ std::string request_line(const Request& request) {
   if (fields & kTarget) j["target"] = request.target;
   if ((fields & kPolicy) && !request.policy.empty()) j["policy"] = request.policy;
   if ((fields & kDepth) && request.depth) j["depth"] = *request.depth;
+  if (fields & kPort) j["port"] = request.port;
+  if ((fields & kCount) && request.count) j["count"] = *request.count;
+  if ((fields & kDuration) && request.duration_s) j["duration"] = *request.duration_s;
   return dump(j);
 }
 

@@ -21,7 +21,7 @@ inline constexpr int kProtocolVersion = 1;
 inline constexpr std::size_t kMaxRequestLine = 64 * 1024;
 
 // The commands of protocol version 1.
-enum class Command { hello, list, stats, activate, deactivate, reset, get, set, connect, disconnect, reload };
+enum class Command { hello, list, stats, activate, deactivate, reset, get, set, connect, disconnect, reload, trace };
 std::string_view to_string(Command command) noexcept;
 // Lifecycle commands, get and set name a component.
 bool needs_component(Command command) noexcept;
@@ -36,6 +36,9 @@ struct Request {
   std::string target;     // connect, disconnect: "Component.port"
   std::string policy;     // connect (empty: the input port's)
   std::optional<std::int64_t> depth;  // connect
+  std::string port;                   // trace: "Component.port", an output data port
+  std::optional<std::int64_t> count;  // trace: stop after this many samples (at least 1)
+  std::optional<double> duration_s;   // trace: stop after this many seconds (more than 0)
 };
 
 // Error codes of a refused request (the reply's "code"); polyportctl maps access_denied to
@@ -49,6 +52,7 @@ inline constexpr const char* kBadValue = "bad_value";
 inline constexpr const char* kUnsupported = "unsupported";
 inline constexpr const char* kInvalidConnection = "invalid_connection";
 inline constexpr const char* kUnknownConnection = "unknown_connection";
+inline constexpr const char* kUnknownPort = "unknown_port";
 inline constexpr const char* kRefused = "refused";
 inline constexpr const char* kAccessDenied = "access_denied";
 
@@ -64,6 +68,10 @@ std::optional<Request> parse_request(std::string_view line, ParseError& error);
 // Reply lines, newline included. Never throw (strings that are not UTF-8 are replaced).
 std::string ok_reply(const nlohmann::json& id, const nlohmann::json& result);
 std::string error_reply(const nlohmann::json& id, std::string_view code, std::string_view message);
+// One line of a streamed reply (trace): `{"v":1,"id":...,"ok":true,"sample":{"t_ns":...,
+// "port":"...","value":...}}`; `value_json` is written as it is (JSON text). The stream ends
+// with an ok_reply or an error_reply.
+std::string sample_line(const nlohmann::json& id, std::int64_t t_ns, std::string_view port, std::string_view value_json);
 // A request line, newline included (polyportctl): the fields `request.command` takes.
 std::string request_line(const Request& request);
 std::string request_line(const nlohmann::json& id, Command command, std::string_view component = {});

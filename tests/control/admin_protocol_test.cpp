@@ -56,6 +56,43 @@ TEST(AdminRequest, RefusesWithAReasonAndKeepsTheId) {
   }
 }
 
+TEST(AdminRequest, ParsesATraceAndItsStreamedLines) {
+  ParseError error;
+  auto trace = parse(R"({"v":1,"id":5,"cmd":"trace","port":"Joystick.reference","count":10,"duration":2.5})", error);
+  ASSERT_TRUE(trace) << error.message;
+  EXPECT_EQ(trace->command, Command::trace);
+  EXPECT_EQ(trace->port, "Joystick.reference");
+  EXPECT_EQ(trace->count, 10);
+  EXPECT_EQ(trace->duration_s, 2.5);
+  auto endless = parse(R"({"v":1,"cmd":"trace","port":"HW.wheel_speeds"})", error);
+  ASSERT_TRUE(endless) << error.message;
+  EXPECT_FALSE(endless->count);
+  EXPECT_FALSE(endless->duration_s);
+  // Round trip of what polyportctl sends.
+  const std::string line = request_line(*trace);
+  auto back = parse(line.substr(0, line.size() - 1), error);
+  ASSERT_TRUE(back) << error.message;
+  EXPECT_EQ(back->port, trace->port);
+  EXPECT_EQ(back->count, trace->count);
+  EXPECT_EQ(back->duration_s, trace->duration_s);
+  for (const auto& [bad, says] : std::vector<std::pair<const char*, const char*>>{
+           {R"({"v":1,"cmd":"trace"})", "needs \"port\""},
+           {R"({"v":1,"cmd":"trace","port":"Joystick"})", "COMPONENT.PORT"},
+           {R"({"v":1,"cmd":"trace","port":"J.r","count":0})", "\"count\" must be an integer of at least 1"},
+           {R"({"v":1,"cmd":"trace","port":"J.r","count":1.5})", "\"count\""},
+           {R"({"v":1,"cmd":"trace","port":"J.r","duration":0})", "\"duration\" must be a number of seconds"},
+           {R"({"v":1,"cmd":"trace","port":"J.r","duration":"1"})", "\"duration\""},
+           {R"({"v":1,"cmd":"stats","port":"J.r"})", "takes no \"port\""}}) {
+    EXPECT_FALSE(parse(bad, error)) << bad;
+    EXPECT_EQ(error.code, kBadRequest) << bad;
+    EXPECT_NE(error.message.find(says), std::string::npos) << bad << ": " << error.message;
+  }
+  const std::string sample = sample_line(5, 1234, "Joystick.reference", R"({"speed_mps":0.9})");
+  ASSERT_EQ(sample.back(), '\n');
+  const json j = json::parse(sample);
+  EXPECT_EQ(j, json::parse(R"({"v":1,"id":5,"ok":true,"sample":{"t_ns":1234,"port":"Joystick.reference","value":{"speed_mps":0.9}}})"));
+}
+
 TEST(AdminRequest, ParsesPropertyAndWiringCommands) {
   ParseError error;
   auto all = parse(R"({"v":1,"cmd":"get","component":"Joystick"})", error);

@@ -2,6 +2,7 @@
 // admin socket's defences against clients that misbehave: garbage, an over-long line, a
 // client that never reads, a client of another uid. Every wait polls with a deadline.
 #include <errno.h>
+#include <grp.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -102,8 +103,10 @@ class Control : public DaemonTest {
     DaemonTest::SetUp();
     socket_ = dir() / "admin.sock";
     // Joystick's output is traced: what the component makes of its properties.
-    daemon_ = daemon(profile(), {"--admin-socket", socket_.string(), "--trace", "Joystick.reference", "--trace-file",
-                                 (dir() / "trace.jsonl").string()});
+    std::vector<std::string> args{"--admin-socket", socket_.string(), "--trace", "Joystick.reference", "--trace-file",
+                                  (dir() / "trace.jsonl").string()};
+    for (const std::string& a : extra_args()) args.push_back(a);
+    daemon_ = daemon(profile(), args);
     // The socket appears once the daemon listens; then the engine starts.
     ASSERT_TRUE(eventually([&] { return ctl({"hello"}).code == 0; }, 30s)) << daemon_->errors();
   }
@@ -194,6 +197,17 @@ class Control : public DaemonTest {
     return reply->value("ok", false) ? "ok" : reply->value("code", "");
   }
   virtual fs::path profile() const { return kProfile; }
+  virtual std::vector<std::string> extra_args() const { return {}; }
+  // Trace probes on `port` still taking samples (polyportd's own --trace is one of them).
+  int open_probes(const std::string& port) {
+    const Json j = ctl({"--json", "stats"}).json();
+    int n = 0;
+    if (j.is_discarded()) return -1;
+    for (const Json& c : j["connections"]) {
+      if (c.value("probe", false) && !c.value("removed", false) && c.value("source", "") == port) ++n;
+    }
+    return n;
+  }
 
   fs::path socket_;
   std::unique_ptr<Child> daemon_;
@@ -616,14 +630,15 @@ TEST_F(DefaultSocket, DaemonAndCtlMeetInTheRuntimeFolder) {
   EXPECT_FALSE(fs::exists(socket)) << "the admin socket is removed at exit";
 }
 
-// Runs polyportctl as uid/gid 65534 (nobody); its exit code and stderr.
-Ctl as_nobody(const fs::path& dir, const fs::path& socket) {
+// Runs polyportctl as uid/gid 65534 (nobody), with `groups` as its supplementary groups; its
+// exit code and stderr.
+Ctl as_nobody(const fs::path& dir, const fs::path& socket, const std::vector<gid_t>& groups = {}) {
   const fs::path err = dir / "nobody.err";
   const int err_fd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   const pid_t pid = ::fork();
   if (pid == 0) {
     ::dup2(err_fd, 2);
-    if (::setgid(65534) != 0 || ::setuid(65534) != 0) ::_exit(100);
+    if (::setgroups(groups.size(), groups.data()) != 0 || ::setgid(65534) != 0 || ::setuid(65534) != 0) ::_exit(100);
     execl(POLYPORTCTL, POLYPORTCTL, "--socket", socket.c_str(), "hello", static_cast<char*>(nullptr));
     ::_exit(101);
   }
@@ -671,6 +686,168 @@ TEST_F(Control, AnotherUserIsRefused) {
   EXPECT_NE(refused.err.find("access denied: uid 65534 is neither the daemon's uid"), std::string::npos) << refused.err;
   EXPECT_NE(daemon_->errors().find("refused a connection from uid 65534"), std::string::npos) << daemon_->errors();
   expect_still_forwarding();
+}
+
+// stats --watch with its output in a file (not a terminal): one table after another, the
+// counts rising; once the daemon goes, it says so and exits 3.
+TEST_F(Control, StatsWatchPrintsATableEachIntervalWithRisingCounts) {
+  Child watch(dir(), "watch", {POLYPORTCTL, "--socket", socket_.string(), "stats", "--watch", "--interval", "0.2"});
+  ASSERT_TRUE(watch.started());
+  // The DELIVERED column of HW.wheel_speeds -> Control.wheel_speeds in each table so far.
+  const auto delivered_column = [&] {
+    std::vector<std::uint64_t> values;
+    std::istringstream in(read_file(dir() / "watch.out"));
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.rfind("HW.wheel_speeds -> Control.wheel_speeds  ", 0) != 0) continue;
+      std::istringstream cells(line.substr(std::string("HW.wheel_speeds -> Control.wheel_speeds").size()));
+      std::uint64_t received = 0, delivered = 0;
+      cells >> received >> delivered;
+      values.push_back(delivered);
+    }
+    return values;
+  };
+  ASSERT_TRUE(eventually([&] { return delivered_column().size() >= 3; }, 20s)) << read_file(dir() / "watch.out");
+  const std::vector<std::uint64_t> values = delivered_column();
+  EXPECT_LT(values[0], values[1]);
+  EXPECT_LT(values[1], values[2]);
+  const std::string out = read_file(dir() / "watch.out");
+  EXPECT_NE(out.find("CONNECTION"), std::string::npos);
+  EXPECT_NE(out.find("DLV/S"), std::string::npos);
+  EXPECT_EQ(out.find("\033["), std::string::npos) << "no screen control when stdout is not a terminal";
+  EXPECT_EQ(out.find("probe."), std::string::npos) << "trace probes are not listed";
+  std::cout << out.substr(0, out.find("\n\n")) << "\n";  // the README's sample
+
+  stop(*daemon_);
+  daemon_.reset();
+  EXPECT_EQ(watch.wait(20s), 3);
+  EXPECT_NE(watch.errors().find("the daemon went away"), std::string::npos) << watch.errors();
+}
+
+TEST_F(Control, TracePrintsDecodedSamplesOfAPort) {
+  const Ctl json = ctl({"--json", "trace", "Joystick.reference", "--count", "5"});
+  ASSERT_EQ(json.code, 0) << json.err;
+  std::vector<Json> samples;
+  std::istringstream in(json.out);
+  std::string line;
+  while (std::getline(in, line)) samples.push_back(Json::parse(line, nullptr, false));
+  ASSERT_EQ(samples.size(), 5u) << json.out;
+  std::int64_t last = 0;
+  for (const Json& sample : samples) {
+    ASSERT_FALSE(sample.is_discarded()) << json.out;
+    EXPECT_EQ(sample.value("port", ""), "Joystick.reference");
+    EXPECT_GT(sample.value("t_ns", std::int64_t{0}), last);
+    last = sample.value("t_ns", std::int64_t{0});
+    // wheelchair::Reference, decoded.
+    ASSERT_TRUE(sample["value"].contains("direction_deg")) << sample.dump();
+    EXPECT_TRUE(sample["value"]["speed_mps"].is_number()) << sample.dump();
+  }
+  const Ctl human = ctl({"trace", "Joystick.reference", "--count", "3"});
+  EXPECT_EQ(human.code, 0) << human.err;
+  EXPECT_EQ(std::count(human.out.begin(), human.out.end(), '\n'), 3) << human.out;
+  EXPECT_NE(human.out.find("  Joystick.reference  {\"direction_deg\":"), std::string::npos) << human.out;
+  EXPECT_NE(human.err.find("3 sample(s) of Joystick.reference, 0 lost (count reached)"), std::string::npos) << human.err;
+  std::cout << human.out;  // the README's sample
+  const Ctl timed = ctl({"--json", "trace", "Joystick.reference", "--duration", "0.5"});
+  EXPECT_EQ(timed.code, 0) << timed.err;
+  EXPECT_GT(std::count(timed.out.begin(), timed.out.end(), '\n'), 0) << timed.out;
+  // Each trace's probe leaves with it: only polyportd's own --trace remains.
+  EXPECT_TRUE(eventually([&] { return open_probes("Joystick.reference") == 1; }, 10s));
+
+  // A trace without an end, stopped by its user (SIGTERM, as Ctrl-C): the probe goes too.
+  {
+    Child endless(dir(), "endless", {POLYPORTCTL, "--socket", socket_.string(), "trace", "Joystick.reference"});
+    ASSERT_TRUE(eventually([&] { return read_file(dir() / "endless.out").find("speed_mps") != std::string::npos; }, 20s))
+        << endless.errors();
+    EXPECT_EQ(open_probes("Joystick.reference"), 2);
+  }
+  EXPECT_TRUE(eventually([&] { return open_probes("Joystick.reference") == 1; }, 10s));
+  EXPECT_TRUE(eventually([&] { return daemon_->errors().find("trace of Joystick.reference ended: its client left") != std::string::npos; }, 10s))
+      << daemon_->errors();
+
+  const Ctl unknown = ctl({"trace", "Joystick.position"});
+  EXPECT_EQ(unknown.code, 1);
+  EXPECT_NE(unknown.err.find("no output data port 'Joystick.position' (output data ports: Joystick.reference,"),
+            std::string::npos) << unknown.err;
+  EXPECT_EQ(ctl({"trace", "Joystick"}).code, 2);
+  EXPECT_EQ(ctl({"trace", "Joystick.reference", "--count", "0"}).code, 2);
+  EXPECT_EQ(code_of(R"({"v":1,"cmd":"trace","port":"Joystick.nothing"})"), "unknown_port");
+  EXPECT_EQ(code_of(R"({"v":1,"cmd":"trace","port":"Joystick.reference","count":0})"), "bad_request");
+  expect_still_forwarding();
+}
+
+// The wheelchair with a joystick handler at 1 kHz, whose trace fills a socket quickly.
+class FastTrace : public Control {
+ public:
+  fs::path profile() const override { return POLYPORT_SOURCE_DIR "/tests/control/wheelchair_fast.xml"; }
+};
+
+TEST_F(FastTrace, ATraceClientThatNeverReadsIsCutOffAndForwardingGoesOn) {
+  RawClient client(socket_);
+  ASSERT_TRUE(client.connected());
+  client.send_some(R"({"v":1,"id":1,"cmd":"trace","port":"Fast.reference"})" "\n");
+  ASSERT_TRUE(eventually([&] { return open_probes("Fast.reference") == 1; }, 10s));
+  // It never reads: the samples pile up past the daemon's bound (1 MiB) and it is cut off.
+  const bool cut = eventually(
+      [&] {
+        pollfd p{client.fd(), 0, 0};
+        ::poll(&p, 1, 0);
+        return (p.revents & POLLHUP) != 0;
+      },
+      90s);
+  EXPECT_TRUE(cut) << "the daemon kept a trace client that never reads";
+  EXPECT_TRUE(eventually([&] { return daemon_->errors().find("bytes of replies unread; cut off") != std::string::npos; }, 10s))
+      << daemon_->errors();
+  EXPECT_TRUE(eventually([&] { return daemon_->errors().find("trace of Fast.reference ended: its client left") != std::string::npos; }, 10s))
+      << daemon_->errors();
+  EXPECT_TRUE(eventually([&] { return open_probes("Fast.reference") == 0; }, 10s));
+  expect_still_forwarding();
+  // The next trace client is served as usual.
+  const Ctl again = ctl({"--json", "trace", "Fast.reference", "--count", "3"});
+  EXPECT_EQ(again.code, 0) << again.err;
+}
+
+// polyportd run --admin-group: the socket belongs to the group (mode 0660) and a peer whose
+// groups include it is admitted; a gid with no name is taken as it is.
+constexpr gid_t kGroup = 60123;
+class AdminGroup : public Control {
+ public:
+  std::vector<std::string> extra_args() const override { return {"--admin-group", std::to_string(kGroup)}; }
+};
+
+TEST_F(AdminGroup, AMemberOfTheGroupIsAdmittedAnotherUserIsRefused) {
+  struct stat st{};
+  ASSERT_EQ(::stat(socket_.c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0660u);
+  EXPECT_EQ(st.st_gid, kGroup);
+  if (::geteuid() != 0) GTEST_SKIP() << "running a client under another uid needs root (setuid); this test runs as uid "
+                                     << ::geteuid();
+  if (!nobody_can(POLYPORTCTL, X_OK) || !nobody_can(dir(), X_OK)) {
+    GTEST_SKIP() << "uid 65534 cannot run " << POLYPORTCTL << " or reach " << dir()
+                 << " (a folder on the way is closed to others)";
+  }
+  const Ctl member = as_nobody(dir(), socket_, {kGroup});
+  EXPECT_EQ(member.code, 0) << member.err;
+  // Not in the group: the socket file's mode stops it first, then the credentials check.
+  const Ctl blocked = as_nobody(dir(), socket_, {kGroup + 1});
+  EXPECT_EQ(blocked.code, 3) << blocked.err;
+  EXPECT_NE(blocked.err.find("access denied"), std::string::npos) << blocked.err;
+  ASSERT_EQ(::chmod(socket_.c_str(), 0666), 0);
+  const Ctl refused = as_nobody(dir(), socket_, {kGroup + 1});
+  EXPECT_EQ(refused.code, 3) << refused.err;
+  EXPECT_NE(refused.err.find("nor root, and not in the allowed group (gid 60123)"), std::string::npos) << refused.err;
+  EXPECT_EQ(as_nobody(dir(), socket_, {kGroup}).code, 0);
+  expect_still_forwarding();
+}
+
+TEST(AdminGroupOption, AnUnknownGroupIsABadCommandLine) {
+  const fs::path dir = fs::temp_directory_path() / ("polyport-control-group-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  Child d(dir, "polyportd", {POLYPORTD, "run", kProfile.string(), "--admin-socket", (dir / "a.sock").string(),
+                             "--admin-group", "no-such-group-here"});
+  EXPECT_EQ(d.wait(20s), 2);
+  EXPECT_NE(d.errors().find("no group named 'no-such-group-here'"), std::string::npos) << d.errors();
+  fs::remove_all(dir);
 }
 
 }  // namespace

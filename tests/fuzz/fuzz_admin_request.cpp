@@ -2,7 +2,8 @@
 // client, split into lines by LineBuffer (in chunks, as recv delivers them), each line
 // parsed, an error reply built for a refused one (its id echoed), request_line round-tripped
 // for an accepted one (every command: hello ... reset, get / set of properties, connect /
-// disconnect with policy and depth).
+// disconnect with policy and depth, trace of a port with count and duration) and a
+// streamed sample line for an accepted trace.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -38,13 +39,20 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       const auto back = parse_request(std::string_view(again).substr(0, again.size() - 1), error2);
       // A name that is not UTF-8 is replaced on the way out; everything else survives the
       // round trip: the command, a connection's depth, and which fields are there.
-      if (!back || back->command != request->command || back->depth != request->depth) std::abort();
+      if (!back || back->command != request->command || back->depth != request->depth ||
+          back->count != request->count || back->duration_s != request->duration_s) {
+        std::abort();
+      }
       if (back->component.empty() != request->component.empty() || back->property.empty() != request->property.empty() ||
           back->source.empty() != request->source.empty() || back->target.empty() != request->target.empty() ||
-          back->policy.empty() != request->policy.empty()) {
+          back->policy.empty() != request->policy.empty() || back->port.empty() != request->port.empty()) {
         std::abort();
       }
       if (ok_reply(request->id, nullptr).back() != '\n') std::abort();
+      if (request->command == Command::trace) {
+        const std::string sample = sample_line(request->id, 1, request->port, "{}");
+        if (sample.back() != '\n' || sample.find('\n') != sample.size() - 1) std::abort();
+      }
     }
   }
   return 0;

@@ -95,6 +95,10 @@ class Engine {
   // One line for the periodic summary on stderr.
   std::string summary_line() const;
 
+  // Takes a probe of add_probe() off its output port (a trace that ended): the forwarding
+  // path stops feeding it. Its memory is kept, as a removed connection's is.
+  Result<void> remove_probe(const DataInPort* probe);
+
  private:
   struct Node {
     std::string name;
