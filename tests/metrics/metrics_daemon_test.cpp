@@ -24,7 +24,7 @@ std::string read_file(const fs::path& file) {
   return s.str();
 }
 
-struct Run {
+struct Outcome {
   int code = -1;
   std::string out;
   std::string err;
@@ -56,10 +56,10 @@ class Metrics : public DaemonTest {
  public:
   Metrics() : DaemonTest("polyport-metrics") {}
 
-  Run run(const std::string& program, std::vector<std::string> args) {
+  Outcome run(const std::string& program, std::vector<std::string> args) {
     args.insert(args.begin(), program);
     const std::string tag = "run-" + std::to_string(++runs_);
-    Run result;
+    Outcome result;
     {
       Child child(dir(), tag, args);
       result.code = child.wait(30s);
@@ -68,12 +68,12 @@ class Metrics : public DaemonTest {
     result.err = read_file(dir() / (tag + ".err"));
     return result;
   }
-  Run ctl(std::vector<std::string> args) {
+  Outcome ctl(std::vector<std::string> args) {
     args.insert(args.begin(), {"--socket", socket().string()});
     return run(POLYPORTCTL, std::move(args));
   }
   Json stats() {
-    const Run s = ctl({"--json", "stats"});
+    const Outcome s = ctl({"--json", "stats"});
     EXPECT_EQ(s.code, 0) << s.err;
     return Json::parse(s.out, nullptr, false);
   }
@@ -107,7 +107,7 @@ TEST_F(Metrics, HistogramCountsEqualTheStatsAndScrapesDoNotDisturbForwarding) {
   // Port 0: the kernel picks a free one; `polyportctl hello` tells which.
   auto daemon = this->daemon(kProfile, {"--admin-socket", socket().string(), "--metrics-port", "0"});
   ASSERT_TRUE(eventually([&] { return ctl({"hello"}).code == 0; }, 30s)) << daemon->errors();
-  const Run hello = ctl({"--json", "hello"});
+  const Outcome hello = ctl({"--json", "hello"});
   const std::string url = Json::parse(hello.out, nullptr, false).value("metrics", "");
   ASSERT_EQ(url.rfind("http://127.0.0.1:", 0), 0u) << hello.out;
   const int port = std::stoi(url.substr(std::strlen("http://127.0.0.1:")));
@@ -126,7 +126,7 @@ TEST_F(Metrics, HistogramCountsEqualTheStatsAndScrapesDoNotDisturbForwarding) {
 
   // Traffic stopped: every component deactivated, then the counters still for a while.
   for (const char* component : {"Joystick", "Control", "HW"}) {
-    const Run r = ctl({"deactivate", component});
+    const Outcome r = ctl({"deactivate", component});
     EXPECT_EQ(r.code, 0) << component << ": " << r.err;
   }
   std::vector<std::uint64_t> last = counts();
@@ -138,10 +138,10 @@ TEST_F(Metrics, HistogramCountsEqualTheStatsAndScrapesDoNotDisturbForwarding) {
     return still >= 3;
   }, 30s)) << "the counters kept moving with every component inactive";
 
-  const Run s = ctl({"--json", "stats"});
+  const Outcome s = ctl({"--json", "stats"});
   ASSERT_EQ(s.code, 0) << s.err;
   std::ofstream(dir() / "stats.now.json") << s.out;
-  const Run check = run(kPython, {POLYPORT_CHECK_METRICS, url, (dir() / "stats.now.json").string()});
+  const Outcome check = run(kPython, {POLYPORT_CHECK_METRICS, url, (dir() / "stats.now.json").string()});
   ASSERT_EQ(check.code, 0) << check.err << check.out;
   const Json compared = Json::parse(check.out, nullptr, false);
   ASSERT_FALSE(compared.is_discarded()) << check.out;
@@ -172,7 +172,7 @@ TEST_F(Metrics, APortInUseIsAnError) {
   ::getsockname(holder, reinterpret_cast<sockaddr*>(&address), &size);
   const std::string port = std::to_string(ntohs(address.sin_port));
 
-  const Run r = run(POLYPORTD, {"run", kProfile.string(), "-q", "--admin-socket", "none", "--metrics-port", port});
+  const Outcome r = run(POLYPORTD, {"run", kProfile.string(), "-q", "--admin-socket", "none", "--metrics-port", port});
   ::close(holder);
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_NE(r.err.find("cannot listen for metrics on 127.0.0.1 port " + port), std::string::npos) << r.err;
