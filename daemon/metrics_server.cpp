@@ -24,9 +24,12 @@ Result<void> MetricsServer::start(const std::string& address, int port) {
   request_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
   if (request_fd_ < 0) return make_error(std::string("metrics: eventfd: ") + std::strerror(errno));
   server_ = std::make_unique<httplib::Server>();
-  // A few workers are enough for scrapers; a client that stalls is dropped after the timeouts.
+  // A few workers are enough for scrapers. A client that stalls holds one until a timeout
+  // drops it: short for reading (a scraper sends its request at once; stop() waits for the
+  // workers), longer for writing the text.
   server_->new_task_queue = [] { return new httplib::ThreadPool(kWorkers); };
-  server_->set_read_timeout(kScrapeTimeout);
+  server_->set_read_timeout(kReadTimeout);
+  server_->set_keep_alive_timeout(kReadTimeout.count());
   server_->set_write_timeout(kScrapeTimeout);
   server_->set_keep_alive_max_count(100);
   server_->set_payload_max_length(1 << 16);

@@ -7,7 +7,8 @@
 // thread, which owns the Engine) calls serve(), which renders the metrics once for every
 // queued scrape and fulfils their promises. The worker then writes the text at the client's
 // pace: a slow client holds a worker, never the main thread. A scrape the main thread does not
-// answer within kScrapeTimeout gets 503. The queue's mutex is taken by these threads only,
+// answer within kScrapeTimeout gets 503; a client that stalls is dropped after kReadTimeout
+// (sending) or kScrapeTimeout (reading). The queue's mutex is taken by these threads only,
 // never by the forwarding path.
 #pragma once
 
@@ -31,6 +32,9 @@ namespace polyport::daemon {
 class MetricsServer {
  public:
   static constexpr std::chrono::seconds kScrapeTimeout{5};
+  // How long a client may keep a worker waiting for its request (also between requests of a
+  // kept-alive connection); the daemon's shutdown waits at most about this long for them.
+  static constexpr std::chrono::seconds kReadTimeout{2};
   static constexpr std::size_t kWorkers = 2;
 
   // Returns the Prometheus text of the metrics now.

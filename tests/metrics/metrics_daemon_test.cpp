@@ -160,6 +160,50 @@ TEST_F(Metrics, HistogramCountsEqualTheStatsAndScrapesDoNotDisturbForwarding) {
   stop(*daemon);
 }
 
+// Opens a TCP connection to 127.0.0.1:port; -1 when it cannot.
+int connect_to(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<std::uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+TEST_F(Metrics, ClientsThatStallDoNotStallTheDaemon) {
+  auto daemon = this->daemon(kProfile, {"--admin-socket", socket().string(), "--metrics-port", "0"});
+  ASSERT_TRUE(eventually([&] { return ctl({"hello"}).code == 0; }, 30s)) << daemon->errors();
+  const std::string url = Json::parse(ctl({"--json", "hello"}).out, nullptr, false).value("metrics", "");
+  ASSERT_EQ(url.rfind("http://127.0.0.1:", 0), 0u) << url;
+  const int port = std::stoi(url.substr(std::strlen("http://127.0.0.1:")));
+
+  // More stalled clients than the server has workers: half a request each, and scrapes
+  // whose replies are never read, with a receive buffer as small as the kernel allows.
+  std::vector<int> stalled;
+  for (int i = 0; i < 4; ++i) {
+    const int fd = connect_to(port);
+    ASSERT_GE(fd, 0);
+    const int small = 1;
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+    const std::string request = i % 2 == 0 ? "GET /metr" : "GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n";
+    ASSERT_EQ(::send(fd, request.data(), request.size(), MSG_NOSIGNAL), static_cast<ssize_t>(request.size()));
+    stalled.push_back(fd);
+  }
+  // The main thread still answers the admin socket, and forwarding goes on.
+  const std::uint64_t before = delivered("HW.wheel_speeds");
+  EXPECT_EQ(ctl({"hello"}).code, 0);
+  EXPECT_TRUE(eventually([&] { return delivered("HW.wheel_speeds") > before + 10; }, 20s))
+      << "forwarding stalled at " << before;
+  for (const int fd : stalled) ::close(fd);
+  // Once they are gone (or dropped by the server's timeouts), scrapes are answered again.
+  EXPECT_TRUE(eventually([&] { return http_get(port, "/metrics").first == "HTTP/1.1 200 OK"; }, 30s));
+  stop(*daemon);
+}
+
 TEST_F(Metrics, APortInUseIsAnError) {
   // A port held by this test: polyportd cannot listen on it.
   const int holder = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
