@@ -24,6 +24,8 @@
 #include "admin_protocol.hpp"
 #include "admin_server.hpp"
 #include "control_requests.hpp"
+#include "metrics.hpp"
+#include "metrics_server.hpp"
 #include "models.hpp"
 #include "polyport/runtime/component_api.hpp"
 #include "polyport/runtime/engine.hpp"
@@ -64,6 +66,8 @@ struct Options {
   std::uint32_t trace_depth = 4096;
   std::string admin_socket;  // empty: the default path; "none": no admin socket
   std::string admin_group;   // empty: none; else a group (name or gid) whose members may connect
+  int metrics_port = -1;     // -1: no metrics endpoint; 0: a port the kernel picks
+  std::string metrics_address = "127.0.0.1";
 };
 
 // The shipped plugins' folder: the build's lib/ for the binary of the build tree; for an
@@ -347,7 +351,8 @@ nlohmann::json collect_stats(const Engine& engine, const Options& options, std::
 // Answers an admin request; runs on the engine's control thread (this main thread).
 std::string answer(const admin::Request& request, std::uint64_t client, Engine& engine,
                    daemon::ControlRequests& control, daemon::TraceStreams& traces, const daemon::ProfileReader& read,
-                   const Options& options, std::chrono::steady_clock::time_point t_start) {
+                   const Options& options, std::chrono::steady_clock::time_point t_start,
+                   const daemon::MetricsServer& metrics) {
   using admin::Command;
   switch (request.command) {
     case Command::trace: {
@@ -364,7 +369,8 @@ std::string answer(const admin::Request& request, std::uint64_t client, Engine& 
                                           {"version", POLYPORT_VERSION},
                                           {"pid", getpid()},
                                           {"application", graph.value("application", "")},
-                                          {"profiles", options.profiles}});
+                                          {"profiles", options.profiles},
+                                          {"metrics", metrics.url()}});
     }
     case Command::list: {
       // The graph of `check --json`, with each component's lifecycle state now.
@@ -489,6 +495,15 @@ int run_daemon(const Options& options) {
     }
   }
 
+  // Bound before the engine starts: a port in use is an error, as a chosen admin socket is.
+  daemon::MetricsServer metrics;
+  if (options.metrics_port >= 0) {
+    if (auto listening = metrics.start(options.metrics_address, options.metrics_port); !listening) {
+      spdlog::error("{} (--metrics-port chooses another port, 0 one the kernel picks)", listening.error().message);
+      return kExitRuntime;
+    }
+  }
+
   std::vector<std::string> warnings;
   engine.set_notifier([](const std::string& message, bool problem) {
     if (problem) {
@@ -505,6 +520,7 @@ int run_daemon(const Options& options) {
   }
   spdlog::info("running {} (pid {}); SIGINT or SIGTERM stops", options.profiles.front(), getpid());
   if (!admin.path().empty()) spdlog::info("admin socket {}", admin.path());
+  if (metrics.port() != 0) spdlog::info("metrics at {}", metrics.url());
   const int signal_fd = signalfd(-1, &signals, SFD_NONBLOCK | SFD_CLOEXEC);
   if (signal_fd < 0) {
     spdlog::error("signalfd: {}", strerror(errno));
@@ -521,10 +537,11 @@ int run_daemon(const Options& options) {
   int stop_signal = 0;
   while (stop_signal == 0) {
     // Wake often enough to drain traces and ping systemd's watchdog; otherwise sleep until
-    // the next summary. Admin requests wake it at once.
-    pollfd fds[2] = {{signal_fd, POLLIN, 0}, {admin.request_fd(), POLLIN, 0}};
+    // the next summary. Admin requests and scrapes wake it at once (poll skips the fd of one
+    // not running: -1).
+    pollfd fds[3] = {{signal_fd, POLLIN, 0}, {admin.request_fd(), POLLIN, 0}, {metrics.request_fd(), POLLIN, 0}};
     const auto wait = systemd.wait_at_most(Clock::now(), std::chrono::milliseconds(tracer.active() || traces.active() ? 100 : 500));
-    ::poll(fds, admin.request_fd() >= 0 ? 2 : 1, static_cast<int>(wait.count()));
+    ::poll(fds, 3, static_cast<int>(wait.count()));
     signalfd_siginfo info{};
     while (::read(signal_fd, &info, sizeof info) == static_cast<ssize_t>(sizeof info)) {
       const int signal = static_cast<int>(info.ssi_signo);
@@ -545,9 +562,16 @@ int run_daemon(const Options& options) {
     if (admin.request_fd() >= 0 && (fds[1].revents & POLLIN)) {
       admin.serve(
           [&](const admin::Request& request, std::uint64_t client) {
-            return answer(request, client, engine, control, traces, read, options, t_start);
+            return answer(request, client, engine, control, traces, read, options, t_start, metrics);
           },
           [&](std::uint64_t client) { traces.close(engine, client); });
+    }
+    if (metrics.request_fd() >= 0 && (fds[2].revents & POLLIN)) {
+      metrics.serve([&] {
+        nlohmann::json stats = collect_stats(engine, options, t_start);
+        daemon::add_histogram_buckets(engine, stats);
+        return daemon::render_prometheus(stats);
+      });
     }
     if (tracer.active()) tracer.drain();
     if (traces.active()) {
@@ -566,6 +590,7 @@ int run_daemon(const Options& options) {
   spdlog::info("stopping ({})", stop_signal ? strsignal(stop_signal) : "duration reached");
   systemd.stopping(stop_signal ? std::string("stopping: ") + strsignal(stop_signal) : "stopping: duration reached");
   ::close(signal_fd);
+  metrics.stop();
   admin.stop();
   engine.stop();
   if (tracer.active()) {
@@ -618,6 +643,12 @@ int main(int argc, char** argv) {
                   "or /run/polyport/... without XDG_RUNTIME_DIR; 'none': no socket); see docs/CONTROL.md");
   run->add_option("--admin-group", options.admin_group,
                   "also admit members of GROUP (a name or a gid) to the admin socket (then mode 0660, owned by GROUP)");
+  run->add_option("--metrics-port", options.metrics_port,
+                  "serve Prometheus metrics at http://ADDRESS:PORT/metrics (0: a free port, logged and in "
+                  "`polyportctl hello`); see docs/CONTROL.md")
+      ->check(CLI::Range(0, 65535));
+  run->add_option("--metrics-address", options.metrics_address, "the address --metrics-port listens on")
+      ->capture_default_str();
 
   CLI::App* check = app.add_subcommand("check", "validate PROFILE(s) and print the resolved graph");
   check->add_option("profiles", options.profiles, "application profile(s)")->required();

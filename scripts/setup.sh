@@ -10,6 +10,7 @@ packages=(
   libspdlog-dev          # the daemon's logging (never on the forwarding path)
   nlohmann-json3-dev     # statistics, traces and `check --json`
   libcli11-dev           # the daemon's command line
+  libcpp-httplib-dev     # the HTTP server of the Prometheus endpoint (polyportd run --metrics-port)
   libgtest-dev libgmock-dev  # tests
   libbenchmark-dev       # micro-benchmarks (built with -DPOLYPORT_BUILD_BENCHMARKS=ON)
   libxml2-utils          # xmllint: shipped profiles are validated against config/polyport.xsd
@@ -20,6 +21,7 @@ packages=(
   python3-matplotlib python3-numpy  # the wheelchair suite's report: tables and PNG plots
   libsystemd-dev         # sd_notify: polyportd under a Type=notify unit with the watchdog
   debootstrap            # scripts/test_deb.sh: a clean Debian 12 root to install the .deb in
+  python3-prometheus-client  # the reference parser of the metrics test (Prometheus text format)
   # The vm tests (scripts/vcan-run installs these itself when missing; here CI has them up front):
   user-mode-linux        # a Linux kernel run as a process, with CAN modules: the host kernel has no CAN
   busybox-static         # the UML guest's init: mounts, insmod and ip without dynamic execs
