@@ -6,9 +6,13 @@
 //
 // Each case runs in a network namespace of its own with a multicast route on loopback
 // (tests/support/multicast_namespace.hpp); that needs root.
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
+#include <iterator>
 #include <set>
+#include <sstream>
 
 #include "../support/multicast_namespace.hpp"
 #include "pose_checks.hpp"
@@ -119,6 +123,84 @@ TEST_F(RecordEndToEnd, LogplayerReplaysAnLcmConnectionIntoAnLcmGenPeerWithEveryV
   for (const Json& pose : replayed) replayed_ids.insert(pose["id"].get<int>());
   EXPECT_EQ(replayed_ids, forwarded);
   for (const int id : replayed_ids) EXPECT_TRUE(sent.count(id)) << "replayed pose " << id << " was never published";
+}
+
+// An event of an LCM log, read by hand (the format of lcm/eventlog.c: big-endian magic
+// 0xEDA1DA01, event number, microseconds, channel length, data length, channel, data).
+struct LogEvent {
+  std::int64_t timestamp_us = 0;
+  std::string channel;
+  std::string data;
+};
+
+std::vector<LogEvent> read_log(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto be = [&](std::size_t at, int n) {
+    std::uint64_t v = 0;
+    for (int k = 0; k < n; ++k) v = (v << 8) | static_cast<unsigned char>(bytes[at + static_cast<std::size_t>(k)]);
+    return v;
+  };
+  std::vector<LogEvent> out;
+  std::size_t at = 0;
+  while (at + 28 <= bytes.size()) {
+    EXPECT_EQ(be(at, 4), 0xEDA1DA01u) << "at byte " << at;
+    if (be(at, 4) != 0xEDA1DA01u) break;
+    LogEvent e;
+    e.timestamp_us = static_cast<std::int64_t>(be(at + 12, 8));
+    const std::size_t channel_len = be(at + 20, 4), data_len = be(at + 24, 4);
+    e.channel = bytes.substr(at + 28, channel_len);
+    e.data = bytes.substr(at + 28 + channel_len, data_len);
+    at += 28 + channel_len + data_len;
+    out.push_back(std::move(e));
+  }
+  EXPECT_EQ(at, bytes.size()) << "the log ends inside an event";
+  return out;
+}
+
+TEST_F(RecordEndToEnd, ADdsSourceIsRecordedInItsCdrBytesOnTheConnectionsChannel) {
+  if (std::string(CYCLONE_PEER).empty()) GTEST_SKIP() << "the Cyclone DDS model or its test peer is not built";
+  // Cyclone DDS on loopback in this namespace (as in tests/lcm_e2e).
+  setenv("CYCLONEDDS_URI", "file://" POLYPORT_SOURCE_DIR "/config/cyclonedds-loopback.xml", 1);
+  const fs::path log = dir() / "dds.lcmlog";
+  auto sub = lcm_peer("sub", {"sub", kUrl, "POSE_OUT"});
+  ASSERT_TRUE(eventually([&] { return sub->saw_event("subscribed"); }));
+  auto daemon = this->daemon(app("from_dds_app.xml"), {"--record", log.string()});  // every data connection
+  auto pub = peer(CYCLONE_PEER, "dds_pub", {"pub", "17", "pose", "0", "10"});
+  ASSERT_TRUE(eventually([&] { return poses(*sub).size() >= 10; }, 60s))
+      << "LCM sub: " << poses(*sub).size() << " poses\n" << daemon->errors() << pub->errors();
+  pub.reset();
+  const Json stats = stop(*daemon);
+  const Json* entry = recorded(stats, "dds.pose -> lcm.pose");
+  ASSERT_NE(entry, nullptr);
+  EXPECT_EQ((*entry)["channel"], "dds.pose->lcm.pose");
+  EXPECT_EQ((*entry)["encoding"], "xcdr1");
+  EXPECT_EQ((*entry)["dropped"], 0);
+  const std::vector<LogEvent> events = read_log(log);
+  ASSERT_EQ(events.size(), (*entry)["recorded"].get<std::size_t>());
+  ASSERT_GE(events.size(), 10u);
+  std::set<int> forwarded;
+  for (const Json& pose : poses(*sub)) forwarded.insert(pose["id"].get<int>());
+  for (const LogEvent& e : events) {
+    EXPECT_EQ(e.channel, "dds.pose->lcm.pose");
+    // CDR as the DDS writer sent it: the encapsulation header (plain CDR, little endian),
+    // then Pose.id.
+    ASSERT_GE(e.data.size(), 8u);
+    EXPECT_EQ(e.data[0], 0);
+    EXPECT_EQ(e.data[1], 1);
+    std::int32_t id = 0;
+    std::memcpy(&id, e.data.data() + 4, sizeof id);
+    EXPECT_TRUE(forwarded.count(id)) << "recorded pose " << id << " never reached the LCM sink";
+  }
+  // lcm-logplayer reads the log and lists every event on that channel.
+  std::string output;
+  ASSERT_EQ(play(log, "-v -s 100", output), 0) << output;
+  std::size_t listed = 0;  // lines "<seconds> Channel dds.pose->lcm.pose   size <bytes>"
+  std::istringstream lines(output);
+  for (std::string text; std::getline(lines, text);) {
+    if (text.find(" Channel dds.pose->lcm.pose ") != std::string::npos && text.find(" size ") != std::string::npos) ++listed;
+  }
+  EXPECT_EQ(listed, events.size()) << output;
 }
 
 }  // namespace
