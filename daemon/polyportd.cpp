@@ -464,8 +464,9 @@ int run_daemon(const Options& options) {
       return kExitUsage;
     }
     g_recorder = &recorder;
-    spdlog::info("recording {} connection(s) to {}",
-                 options.record_connections.empty() ? "every data" : std::to_string(options.record_connections.size()),
+    spdlog::info("recording {} to {}",
+                 options.record_connections.empty() ? std::string("every data connection")
+                                                    : std::to_string(options.record_connections.size()) + " connection(s)",
                  options.record_file);
   }
 #else

@@ -3,7 +3,8 @@
 // (counted on the writing thread, the recorder's writer running meanwhile); a tap that is not
 // drained drops and counts while the connection goes on delivering; the log read back with
 // liblcm's own reader holds the values written, in their flat layout (wheelchair.idl is not an
-// LCM type), on the channel named after the connection.
+// LCM type), on the channel named after the connection; in-process samples of an LCM type
+// (tests/record/data) are recorded LCM-encoded.
 #include <gtest/gtest.h>
 #include <lcm/eventlog.h>
 
@@ -19,6 +20,7 @@
 #include "polyport/runtime/connection.hpp"
 #include "polyport/runtime/engine.hpp"
 #include "polyport/types/types.hpp"
+#include "polyport/codecs/codec.hpp"
 #include "recorder.hpp"
 
 namespace polyport {
@@ -39,22 +41,24 @@ class Recording : public ::testing::Test {
   void SetUp() override {
     models_.add(std::make_unique<inproc::InprocModel>());
     Diagnostics diagnostics;
-    auto profile = load_application_profile(POLYPORT_SOURCE_DIR "/profiles/wheelchair_inproc.xml", types_,
-                                            LoadOptions{{POLYPORT_PLUGIN_DIR}}, diagnostics);
+    auto profile = load_application_profile(profile_path(), types_, LoadOptions{{POLYPORT_PLUGIN_DIR}}, diagnostics);
     ASSERT_TRUE(profile) << (diagnostics.all().empty() ? "" : diagnostics.all().front().to_string());
     engine_ = std::make_unique<Engine>(models_, types_);
     ASSERT_TRUE(engine_->build(*profile, diagnostics));
-    out_ = dynamic_cast<DataOutPort*>(engine_->find_port("Joystick.reference"));
+    out_ = dynamic_cast<DataOutPort*>(engine_->find_port(source_port()));
     ASSERT_NE(out_, nullptr);
     for (const auto& c : engine_->connections()) {
-      if (c->name() == "Joystick.reference -> Control.reference") link_ = c.get();
+      if (&c->source() == out_) link_ = c.get();
     }
     ASSERT_NE(link_, nullptr);
     log_ = fs::temp_directory_path() /
            ("polyport-record-" + std::to_string(getpid()) + "-" +
             ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".lcmlog");
   }
+  virtual const char* profile_path() const { return POLYPORT_SOURCE_DIR "/profiles/wheelchair_inproc.xml"; }
+  virtual const char* source_port() const { return "Joystick.reference"; }
   void TearDown() override {
+    if (engine_) engine_->stop();
     recorder_.stop();
     if (!HasFailure()) fs::remove(log_);
   }
@@ -192,6 +196,47 @@ TEST_F(Recording, AnUnknownConnectionIsRefusedWithTheNames) {
   EXPECT_NE(opened.error().message.find("Joystick.reference->HW.voltages"), std::string::npos) << opened.error().message;
   EXPECT_NE(opened.error().message.find(kConnection), std::string::npos) << opened.error().message;
   EXPECT_FALSE(recorder_.active());
+}
+
+// In-process components whose port type is an LCM struct (tests/record/data/count.lcm): the
+// samples are recorded LCM-encoded, so LCM tools decode them.
+class RecordingLcmTypes : public Recording {
+ protected:
+  const char* profile_path() const override { return POLYPORT_SOURCE_DIR "/tests/record/data/lcm_count_app.xml"; }
+  const char* source_port() const override { return "ticker.count"; }
+};
+
+TEST_F(RecordingLcmTypes, AnInProcessSampleOfAnLcmTypeIsRecordedLcmEncoded) {
+  ASSERT_TRUE(recorder_.open(*engine_, log_.string(), {}, 1024));
+  recorder_.start();
+  std::vector<std::string> warnings;
+  ASSERT_TRUE(engine_->start(warnings));
+  ASSERT_TRUE(eventually([&] { return stats()["recording"]["events"].get<int>() >= 50; }));
+  engine_->stop();
+  recorder_.stop();
+  const nlohmann::json s = stats();
+  const auto& r = s["recording"]["connections"][0];
+  EXPECT_EQ(r["channel"], "ticker.count->collector.in");
+  EXPECT_EQ(r["encoding"], "lcm");
+  EXPECT_EQ(r["dropped"], 0);
+  EXPECT_EQ(r["recorded"], link_->counters().received.load());
+
+  auto codec = make_lcm_codec(*out_->type());
+  ASSERT_TRUE(codec);
+  const std::vector<Event> log = events();
+  ASSERT_EQ(log.size(), r["recorded"].get<std::size_t>());
+  std::int64_t expected = 1;  // the Ticker counts its cycles from 1
+  for (const Event& e : log) {
+    // int64_t count after the 8-byte fingerprint, big-endian as LCM encodes.
+    ASSERT_EQ(e.data.size(), 16u);
+    std::int64_t count = 0;
+    const CodecResult decoded = codec.value()->decode(e.data.data(), 16, reinterpret_cast<std::byte*>(&count), sizeof count);
+    ASSERT_TRUE(decoded.ok()) << to_string(decoded.error);  // the fingerprint is rec.count_t's
+    std::uint64_t big_endian = 0;
+    for (int k = 8; k < 16; ++k) big_endian = (big_endian << 8) | static_cast<std::uint8_t>(e.data[static_cast<std::size_t>(k)]);
+    EXPECT_EQ(static_cast<std::int64_t>(big_endian), count);
+    EXPECT_EQ(count, expected++);
+  }
 }
 
 }  // namespace
