@@ -33,6 +33,9 @@
 #include "polyport/types/types.hpp"
 #include "sd_notify.hpp"
 #include "tracer.hpp"
+#ifdef POLYPORT_WITH_RECORDER
+#include "recorder.hpp"
+#endif
 #include "types_command.hpp"
 
 namespace {
@@ -68,6 +71,9 @@ struct Options {
   std::string admin_group;   // empty: none; else a group (name or gid) whose members may connect
   int metrics_port = -1;     // -1: no metrics endpoint; 0: a port the kernel picks
   std::string metrics_address = "127.0.0.1";
+  std::string record_file;   // empty: no recording
+  std::vector<std::string> record_connections;  // empty: every data connection
+  std::uint32_t record_depth = 1024;
 };
 
 // The shipped plugins' folder: the build's lib/ for the binary of the build tree; for an
@@ -332,16 +338,30 @@ void print_final_stats(const nlohmann::json& stats) {
     spdlog::info("  {}: calls {}, ok {}, timeouts {}, errors {}", s.value("name", ""), s.value("calls", 0),
                  s.value("ok", 0), s.value("timeouts", 0), s.value("errors", 0));
   }
+  if (stats.contains("recording")) {
+    for (const auto& r : stats["recording"]["connections"]) {
+      spdlog::info("  recording {} on channel {} ({}): recorded {}, dropped {}", r.value("connection", ""),
+                   r.value("channel", ""), r.value("encoding", ""), r.value("recorded", 0), r.value("dropped", 0));
+    }
+  }
   for (const auto& e : stats["execution_contexts"]) {
     spdlog::info("  execution context {}: {} cycles, {} overruns; wake jitter {}", e.value("name", ""),
                  e.value("cycles", 0), e.value("overruns", 0), histogram_text(e["wake_jitter_ns"]));
   }
 }
 
+#ifdef POLYPORT_WITH_RECORDER
+// The recording of this run, for collect_stats (control thread only); null: none.
+const daemon::Recorder* g_recorder = nullptr;
+#endif
+
 // The statistics of --stats-json, also what the admin socket's `stats` answers.
 nlohmann::json collect_stats(const Engine& engine, const Options& options, std::chrono::steady_clock::time_point t_start) {
   nlohmann::json stats;
   engine.stats(stats);
+#ifdef POLYPORT_WITH_RECORDER
+  if (g_recorder != nullptr) g_recorder->stats(stats);
+#endif
   stats["polyport_version"] = POLYPORT_VERSION;
   stats["profiles"] = options.profiles;
   stats["run_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
@@ -461,6 +481,27 @@ int run_daemon(const Options& options) {
     spdlog::info("tracing {} port(s) to {}", options.trace_ports.size(), options.trace_file);
   }
 
+#ifdef POLYPORT_WITH_RECORDER
+  daemon::Recorder recorder;
+  if (!options.record_file.empty()) {
+    if (auto opened = recorder.open(engine, options.record_file, options.record_connections, options.record_depth);
+        !opened) {
+      spdlog::error("--record: {}", opened.error().message);
+      return kExitUsage;
+    }
+    g_recorder = &recorder;
+    spdlog::info("recording {} to {}",
+                 options.record_connections.empty() ? std::string("every data connection")
+                                                    : std::to_string(options.record_connections.size()) + " connection(s)",
+                 options.record_file);
+  }
+#else
+  if (!options.record_file.empty()) {
+    spdlog::error("--record: this polyportd was built without LCM, whose log format recordings use");
+    return kExitUsage;
+  }
+#endif
+
   // Before the engine's threads start: creating the socket sets the process's umask briefly.
   daemon::AdminServer admin;
   daemon::TraceStreams traces;
@@ -512,6 +553,9 @@ int run_daemon(const Options& options) {
       spdlog::info("{}", message);
     }
   });
+#ifdef POLYPORT_WITH_RECORDER
+  recorder.start();
+#endif
   Result<void> started = engine.start(warnings);
   for (const std::string& warning : warnings) spdlog::warn("{}", warning);
   if (!started) {
@@ -593,6 +637,9 @@ int run_daemon(const Options& options) {
   metrics.stop();
   admin.stop();
   engine.stop();
+#ifdef POLYPORT_WITH_RECORDER
+  recorder.stop();
+#endif
   if (tracer.active()) {
     tracer.drain();
     if (tracer.lost() > 0) spdlog::warn("trace lost {} sample(s): raise --trace-depth", tracer.lost());
@@ -638,6 +685,11 @@ int main(int argc, char** argv) {
   run->add_option("--trace-file", options.trace_file, "where --trace writes")->capture_default_str();
   run->add_option("--trace-depth", options.trace_depth, "samples buffered per traced port between drains")
       ->capture_default_str()->check(CLI::Range(1u, 1u << 20));
+  run->add_option("--record", options.record_file, "record the bridged traffic as an LCM event log to FILE");
+  run->add_option("--record-connection", options.record_connections,
+                  "record this data connection (\"Src.port->Dst.port\"); repeatable; none: every data connection");
+  run->add_option("--record-depth", options.record_depth, "samples held per recorded source between the writer's turns")
+      ->capture_default_str();
   run->add_option("--admin-socket", options.admin_socket,
                   "Unix socket for polyportctl (mode 0600; default $XDG_RUNTIME_DIR/polyport/polyportd-<pid>.sock, "
                   "or /run/polyport/... without XDG_RUNTIME_DIR; 'none': no socket); see docs/CONTROL.md");
