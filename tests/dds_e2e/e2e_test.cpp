@@ -81,7 +81,7 @@ TEST_F(DdsEndToEnd, InProcessCallerCallsADdsServerAndTimesOutWithoutOne) {
 TEST_F(DdsEndToEnd, CycloneThreadsRunWithTheProfilesScheduling) {
   std::ofstream(dir() / "Rt.xml") << R"(<?xml version="1.0"?>
 <component_profile><name>Rt</name><model>cyclonedds</model>
-  <dds><domain>171</domain><receive_thread policy="SCHED_FIFO" priority="30"/></dds>
+  <dds><domain>223</domain><receive_thread policy="SCHED_FIFO" priority="30"/></dds>
   <types><file>)" POLYPORT_SOURCE_DIR R"(/config/types/wheelchair.idl</file></types>
   <ports><data_port><name>reference</name><data_type>wheelchair::Reference</data_type><usage>output</usage></data_port></ports>
 </component_profile>)";
