@@ -154,8 +154,12 @@ std::string ControlRequests::connect(const admin::Request& request) {
   }
   added_.emplace(request.source, request.target);
   const Connection* connection = added.value();
-  if (connection == nullptr) {  // a service connection: the engine refuses those once running
-    return admin::ok_reply(request.id, {{"source", request.source}, {"target", request.target}, {"kind", "service"}});
+  if (connection == nullptr) {  // a service connection: the caller's binding, replaced whole
+    spdlog::info("admin: connected {} -> {} (service)", request.source, request.target);
+    return admin::ok_reply(request.id, {{"source", request.source},
+                                        {"target", request.target},
+                                        {"kind", "service"},
+                                        {"origin", "run time"}});
   }
   spdlog::info("admin: connected {} ({}{}, {})", connection->name(), to_string(connection->policy()),
                connection->policy() != QueuePolicy::data ? "/" + std::to_string(connection->depth()) : "",

@@ -107,10 +107,6 @@ Result<GraphDiff> diff(const ApplicationProfile& running, const ApplicationProfi
     }
     return false;
   };
-  const auto service_refusal = [](const ConnectionSpec& c, std::string_view what) {
-    return make_error("the service connection " + key_of(c) + " would be " + std::string(what) +
-                      ": service connections are bound while the application runs (restart the daemon to change them)");
-  };
 
   std::map<std::string, const ConnectionSpec*, std::less<>> old_connections;
   std::set<std::string, std::less<>> new_keys;
@@ -122,7 +118,6 @@ Result<GraphDiff> diff(const ApplicationProfile& running, const ApplicationProfi
     const bool added = old == old_connections.end();
     const bool changed = !added && (old->second->definition != c.definition || touched(c));
     if (!added && !changed) continue;
-    if (c.kind == PortKind::service) return service_refusal(c, added ? "added" : "changed");
     if (added) {
       out.connections_added.push_back(key);
     } else {
@@ -135,7 +130,6 @@ Result<GraphDiff> diff(const ApplicationProfile& running, const ApplicationProfi
   for (const ConnectionSpec& c : running.connections) {
     const std::string key = key_of(c);
     if (new_keys.count(key) != 0) continue;
-    if (c.kind == PortKind::service) return service_refusal(c, "removed");
     out.connections_removed.push_back(key);
     out.change.connections_out.emplace_back(c.source.component + "." + c.source.port,
                                             c.target.component + "." + c.target.port);

@@ -36,8 +36,7 @@ struct GraphDiff {
 
 // The difference from `running` to `next`. A component is changed when its definition is;
 // a connection when its definition is, or when a component it names (its ends, a watchdog's
-// upstream or event port) is changed. Service connections are bound while the application
-// runs: one added, removed, changed, or touching a changed or removed component, is an error.
+// upstream or event port) is changed; service connections alike (a caller is bound anew).
 Result<GraphDiff> diff(const ApplicationProfile& running, const ApplicationProfile& next);
 
 // The first type `fresh` declares that `live` declares with another shape (fields, offsets,

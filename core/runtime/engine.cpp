@@ -110,10 +110,7 @@ Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optio
                       target.full_name() + " is a " + std::string(to_string(target.kind())) + " port");
   }
   if (source.kind() == PortKind::service) {
-    if (started_) {
-      // Callers read the binding without a lock; it is fixed while the application runs.
-      return make_error("service ports cannot be connected while the application runs");
-    }
+    // While the application runs too: the binding is published whole, callers never wait.
     auto* required = dynamic_cast<RequiredServicePort*>(&source);
     auto* provided = dynamic_cast<ProvidedServicePort*>(&target);
     if (!required || !provided) {
@@ -127,6 +124,8 @@ Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optio
       return make_error(provided->full_name() + " does not provide operation(s) " + missing + " that " +
                         required->full_name() + " calls");
     }
+    // A required port has one provider: binding it again replaces its link.
+    std::erase_if(service_links_, [required](const auto& link) { return link.first == required; });
     service_links_.emplace_back(required, provided);
     return static_cast<Connection*>(nullptr);
   }
@@ -263,6 +262,9 @@ Result<Connection*> Engine::add_connection(const ConnectionSpec& spec) {
       return make_error(source_name + " is already connected to " + target_name);
     }
   }
+  for (const auto& [required, provided] : service_links_) {
+    if (required == source && provided == target) return make_error(source_name + " is already connected to " + target_name);
+  }
   return connect_ports(*source, *target, spec.policy, spec.depth, spec.program);
 }
 
@@ -275,10 +277,12 @@ Result<void> Engine::remove_connection(std::string_view source, std::string_view
     unpublish(it);
     return {};
   }
-  for (const auto& [required, provided] : service_links_) {
-    if (required->full_name() == source && provided->full_name() == target) {
-      // Callers read the binding without a lock; it is fixed while the application runs.
-      return make_error("service connections cannot be removed while the application runs");
+  for (auto it = service_links_.begin(); it != service_links_.end(); ++it) {
+    if (it->first->full_name() == source && it->second->full_name() == target) {
+      // Calls made already finish with the provider they went to; new ones get not_connected.
+      it->first->disconnect();
+      service_links_.erase(it);
+      return {};
     }
   }
   return make_error("no connection " + std::string(source) + " -> " + std::string(target));
@@ -323,12 +327,6 @@ Result<void> Engine::apply(const Change& change, std::vector<std::string>& warni
   for (const auto& c : connections_) {
     if (leaves(c->source().owner()) || leaves(c->target().owner())) going.push_back(c.get());
   }
-  for (const auto& [required, provided] : service_links_) {
-    if (leaves(required->owner()) || leaves(provided->owner())) {
-      return make_error("the service connection " + required->full_name() + " -> " + provided->full_name() +
-                        " cannot change while the application runs");
-    }
-  }
 
   // Make: the new proxies first (nothing is connected to them yet), found by name from now on.
   Diagnostics diagnostics;
@@ -351,6 +349,7 @@ Result<void> Engine::apply(const Change& change, std::vector<std::string>& warni
     return make_error(std::string(what) + ":\n" + problems);
   };
   const std::size_t first_new = connections_.size();
+  links_before_ = service_links_;  // what roll_back restores, and the links the break may take
   if (diagnostics.has_errors()) {
     roll_back(first_new);
     return failed("the new components could not be made");
@@ -377,8 +376,21 @@ Result<void> Engine::apply(const Change& change, std::vector<std::string>& warni
     }
   }
 
-  // Break: the old connections leave, then the old components stop.
+  // Break: the old connections leave, then the old components stop. A service link goes when
+  // the profiles no longer make it or its caller leaves; a caller that stays and was bound
+  // anew above (its provider replaced) keeps the new link.
   timer_.start(notify_);
+  std::erase_if(service_links_, [&](const auto& link) {
+    const auto& [required, provided] = link;
+    if (std::find(links_before_.begin(), links_before_.end(), link) == links_before_.end()) return false;  // made now
+    const bool named = std::any_of(change.connections_out.begin(), change.connections_out.end(), [&](const auto& ends) {
+      return ends.first == required->full_name() && ends.second == provided->full_name();
+    });
+    if (!named && !leaves(required->owner()) && !leaves(provided->owner())) return false;
+    // The caller is bound to this provider still (not rebound by a connection made above).
+    if (required->provider() == provided) required->disconnect();
+    return true;
+  });
   for (const Connection* c : going) {
     const auto it = std::find_if(connections_.begin(), connections_.end(), [c](const auto& p) { return p.get() == c; });
     if (it != connections_.end()) unpublish(it);
@@ -429,6 +441,16 @@ void Engine::roll_back(std::size_t first) {
   }
   staged_.clear();
   hidden_.clear();
+  // Service links made meanwhile are undone and the earlier bindings put back.
+  for (const auto& [required, provided] : service_links_) {
+    const bool bound_before = std::any_of(links_before_.begin(), links_before_.end(),
+                                          [required = required](const auto& link) { return link.first == required; });
+    if (!bound_before) required->disconnect();
+  }
+  service_links_ = links_before_;
+  for (const auto& [required, provided] : service_links_) {
+    if (required->provider() != provided) required->connect(*provided);
+  }
   // The contexts made for them (a reload never adds to a running one) go too, started or not.
   retire_unused(made);
 }

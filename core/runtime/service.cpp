@@ -131,8 +131,7 @@ RequiredServicePort::RequiredServicePort(Component& owner, std::string name, std
     : Port(owner, std::move(name), PortKind::service, PortDirection::required, nullptr),
       service_type_(std::move(service_type)),
       operations_(std::move(operations)),
-      max_in_flight_(max_in_flight == 0 ? 1 : max_in_flight),
-      remote_index_(operations_.size(), -1) {
+      max_in_flight_(max_in_flight == 0 ? 1 : max_in_flight) {
   std::uint32_t request_bytes = 0;
   std::uint32_t reply_bytes = 0;
   for (const OperationInfo& operation : operations_) {
@@ -156,19 +155,19 @@ bool RequiredServicePort::connect(ProvidedServicePort& provider) {
     index[i] = provider.find_operation(operations_[i].name);
     if (index[i] < 0) return false;
   }
-  remote_index_ = std::move(index);
-  provider_.store(&provider, std::memory_order_release);
+  bindings_.push_back(std::make_unique<Binding>(Binding{&provider, std::move(index)}));
+  binding_.store(bindings_.back().get(), std::memory_order_release);
   return true;
 }
 
-void RequiredServicePort::disconnect() noexcept { provider_.store(nullptr, std::memory_order_release); }
+void RequiredServicePort::disconnect() noexcept { binding_.store(nullptr, std::memory_order_release); }
 
 PendingCall* RequiredServicePort::acquire(std::string_view operation, const void* request,
                                           std::uint32_t request_size, bool wants_reply, Status& status,
                                           CallObserver* observer, std::uint64_t tag) noexcept {
   counters_.calls.fetch_add(1, std::memory_order_relaxed);
-  ProvidedServicePort* provider = provider_.load(std::memory_order_acquire);
-  if (!provider) {
+  const Binding* binding = binding_.load(std::memory_order_acquire);
+  if (!binding) {
     counters_.not_connected.fetch_add(1, std::memory_order_relaxed);
     status = Status::not_connected;
     return nullptr;
@@ -193,7 +192,7 @@ PendingCall* RequiredServicePort::acquire(std::string_view operation, const void
       continue;
     }
     PendingCall& call = *slot;
-    call.operation = static_cast<std::uint16_t>(remote_index_[local]);
+    call.operation = static_cast<std::uint16_t>(binding->remote_index[local]);
     if (request_size > 0) std::memcpy(call.request_storage_.get(), request, request_size);
     call.request = call.request_storage_.get();
     call.request_size = request_size;
@@ -203,7 +202,7 @@ PendingCall* RequiredServicePort::acquire(std::string_view operation, const void
     call.observer_ = observer;
     call.tag_ = tag;
     if (observer != nullptr) call.started_ = mono_now();
-    status = provider->dispatch(call);
+    status = binding->provider->dispatch(call);
     return &call;
   }
   counters_.too_many_calls.fetch_add(1, std::memory_order_relaxed);

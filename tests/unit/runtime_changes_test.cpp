@@ -246,9 +246,39 @@ TEST_F(RuntimeChanges, ConnectionsAreAddedAndRemovedWhileSamplesFlow) {
   Result<void> unknown = engine.remove_connection("ticker.count", "tunable.step");
   ASSERT_FALSE(unknown);
   EXPECT_EQ(unknown.error().message, "no connection ticker.count -> tunable.step");
-  Result<void> service = engine.remove_connection("caller.calc", "adder.calc");
-  ASSERT_FALSE(service);
-  EXPECT_NE(service.error().message.find("service connections cannot be removed"), std::string::npos);
+  engine.stop();
+}
+
+// A service connection is removed and made again while the caller calls: in between its
+// calls end not_connected, then it gets sums again (its binding is replaced whole).
+TEST_F(RuntimeChanges, AServiceConnectionIsRemovedAndMadeWhileCallsGoOn) {
+  std::vector<std::string> warnings;
+  ASSERT_TRUE(engine.start(warnings));
+  Result<DataInPort*> sums = engine.add_probe("caller.sums", 1024);
+  ASSERT_TRUE(sums);
+  ASSERT_TRUE(eventually([&] { return latest(*sums.value()).has_value(); })) << "no sums while bound";
+  auto* calc = dynamic_cast<RequiredServicePort*>(engine.find_port("caller.calc"));
+  ASSERT_NE(calc, nullptr);
+
+  ASSERT_TRUE(engine.remove_connection("caller.calc", "adder.calc"));
+  EXPECT_FALSE(calc->connected());
+  const std::uint64_t refused = calc->counters().not_connected.load();
+  ASSERT_TRUE(eventually([&] { return calc->counters().not_connected.load() > refused + 3; }))
+      << "the caller's calls are not refused";
+  (void)latest(*sums.value());  // what came before
+
+  std::string why;
+  const auto spec = check({"caller.calc", "adder.calc", "", ""}, why);
+  ASSERT_TRUE(spec) << why;
+  EXPECT_EQ(spec->kind, PortKind::service);
+  Result<Connection*> bound = engine.add_connection(*spec);
+  ASSERT_TRUE(bound) << bound.error().message;
+  EXPECT_EQ(bound.value(), nullptr) << "a service connection has no data connection";
+  EXPECT_TRUE(calc->connected());
+  ASSERT_TRUE(eventually([&] { return latest(*sums.value()).has_value(); })) << "no sums once bound again";
+  Result<Connection*> twice = engine.add_connection(*spec);
+  ASSERT_FALSE(twice);
+  EXPECT_EQ(twice.error().message, "caller.calc is already connected to adder.calc");
   engine.stop();
 }
 

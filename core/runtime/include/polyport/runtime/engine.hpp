@@ -57,8 +57,8 @@ class Engine {
   // are new, or replace the running instance of the same name listed in `components_out`;
   // connections in `connections_out` ("Component.port" pairs) go, and so does every connection
   // of a component that goes; `connections_in` are made (new ones, changed ones, and the
-  // connections of replaced components). Data and event connections only: service bindings
-  // are fixed while the application runs (the caller refuses such a change).
+  // connections of replaced components). Service connections too: a caller's binding is
+  // replaced whole; calls made already finish with the provider they went to.
   struct Change {
     std::vector<const Subcomponent*> components_in;
     std::vector<std::string> components_out;
@@ -139,6 +139,7 @@ class Engine {
   std::vector<std::unique_ptr<Connection>> removed_;  // see remove_connection
   std::vector<std::shared_ptr<const MappingProgram>> mappings_;  // used by connections_
   std::vector<std::pair<RequiredServicePort*, ProvidedServicePort*>> service_links_;
+  std::vector<std::pair<RequiredServicePort*, ProvidedServicePort*>> links_before_;  // during apply()
   std::string name_;
   std::unique_ptr<Component> probes_;
   std::unique_ptr<Component> watchdog_events_;  // the watchdogs' event ports (<watchdog><event>)

@@ -153,12 +153,16 @@ class RequiredServicePort final : public Port {
   RequiredServicePort(Component& owner, std::string name, std::string service_type,
                       std::vector<OperationInfo> operations, std::uint32_t max_in_flight = 8);
 
-  // Control thread: binds to a provider (operations matched by name); false if an
-  // operation of this port is missing there.
+  // Control thread, also while callers call: binds to a provider (operations matched by
+  // name), replacing any binding; false if an operation of this port is missing there. A call
+  // already made goes on with the provider it was made to.
   bool connect(ProvidedServicePort& provider);
   void disconnect() noexcept;
-  bool connected() const noexcept { return provider_.load(std::memory_order_acquire) != nullptr; }
-  ProvidedServicePort* provider() const noexcept { return provider_.load(std::memory_order_acquire); }
+  bool connected() const noexcept { return binding_.load(std::memory_order_acquire) != nullptr; }
+  ProvidedServicePort* provider() const noexcept {
+    const Binding* binding = binding_.load(std::memory_order_acquire);
+    return binding != nullptr ? binding->provider : nullptr;
+  }
 
   // Synchronous call.
   Status query(std::string_view operation, const void* request, std::uint32_t request_size,
@@ -206,8 +210,15 @@ class RequiredServicePort final : public Port {
   std::vector<OperationInfo> operations_;
   std::uint32_t max_in_flight_;
   std::vector<std::unique_ptr<PendingCall>> pool_;
-  std::vector<int> remote_index_;  // our operation index -> provider's
-  std::atomic<ProvidedServicePort*> provider_{nullptr};
+  // A provider and, per operation of this port, its index there, published whole (one
+  // pointer) so that a caller never pairs a provider with another's indexes. Earlier
+  // bindings are kept: a caller may still be reading one (the forwarding path takes no lock).
+  struct Binding {
+    ProvidedServicePort* provider = nullptr;
+    std::vector<int> remote_index;  // our operation index -> provider's
+  };
+  std::atomic<const Binding*> binding_{nullptr};
+  std::vector<std::unique_ptr<Binding>> bindings_;  // control thread
   Counters counters_;
   LatencyHistogram latency_;
 };
