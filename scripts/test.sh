@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Sets up, builds and runs the whole test suite (labels unit, integration and vm).
+# Sets up, builds and runs the whole test suite (labels unit, integration, vm and package).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup.sh
