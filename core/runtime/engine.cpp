@@ -314,9 +314,9 @@ Result<void> Engine::apply(const Change& change, std::vector<std::string>& warni
     leaving.push_back(component);
   }
   std::vector<const Connection*> going;
-  for (const auto& [source, target] : change.connections_out) {
+  for (const auto& ends : change.connections_out) {
     const auto it = std::find_if(connections_.begin(), connections_.end(), [&](const auto& c) {
-      return c->source().full_name() == source && c->target().full_name() == target;
+      return c->source().full_name() == ends.first && c->target().full_name() == ends.second;
     });
     // Gone already (disconnected at run time): nothing to take away.
     if (it != connections_.end()) going.push_back(it->get());
@@ -381,7 +381,8 @@ Result<void> Engine::apply(const Change& change, std::vector<std::string>& warni
   // anew above (its provider replaced) keeps the new link.
   timer_.start(notify_);
   std::erase_if(service_links_, [&](const auto& link) {
-    const auto& [required, provided] = link;
+    RequiredServicePort* required = link.first;
+    const ProvidedServicePort* provided = link.second;
     if (std::find(links_before_.begin(), links_before_.end(), link) == links_before_.end()) return false;  // made now
     const bool named = std::any_of(change.connections_out.begin(), change.connections_out.end(), [&](const auto& ends) {
       return ends.first == required->full_name() && ends.second == provided->full_name();
