@@ -79,17 +79,10 @@ TEST_F(DdsEndToEnd, InProcessCallerCallsADdsServerAndTimesOutWithoutOne) {
 // <dds><receive_thread>: Cyclone's receive, delivery and timed-event threads run SCHED_FIFO
 // at the asked priority (root here); for a process that may not, one warning and SCHED_OTHER.
 TEST_F(DdsEndToEnd, CycloneThreadsRunWithTheProfilesScheduling) {
-  std::ofstream(dir() / "Rt.xml") << R"(<?xml version="1.0"?>
-<component_profile><name>Rt</name><model>cyclonedds</model>
-  <dds><domain>223</domain><receive_thread policy="SCHED_FIFO" priority="30"/></dds>
-  <types><file>)" POLYPORT_SOURCE_DIR R"(/config/types/wheelchair.idl</file></types>
-  <ports><data_port><name>reference</name><data_type>wheelchair::Reference</data_type><usage>output</usage></data_port></ports>
-</component_profile>)";
-  std::ofstream(dir() / "rt_app.xml") << R"(<?xml version="1.0"?>
-<application_profile><name>rt</name>
-  <subcomponents><subcomponent><name>rt</name><reference>Rt.xml</reference></subcomponent></subcomponents>
-</application_profile>)";
-  auto daemon = this->daemon(dir() / "rt_app.xml");
+  const fs::path app = one_component_app(
+      "cyclonedds", R"(<dds><domain>223</domain><receive_thread policy="SCHED_FIFO" priority="30"/></dds>)",
+      POLYPORT_SOURCE_DIR "/config/types/wheelchair.idl", "wheelchair::Reference");
+  auto daemon = this->daemon(app);
   ASSERT_TRUE(eventually([&] { return thread_scheduling(daemon->pid(), "recv").has_value(); })) << daemon->errors();
   if (geteuid() == 0) {
     for (const char* name : {"recv", "dq.user", "tev"}) {

@@ -473,17 +473,10 @@ TEST_F(LcmFastDds, FastDdsToLcmCarriesEveryFieldWithItsLengthMember) {
 // The receive thread runs with the scheduling <lcm><receive_thread> asks for: SCHED_FIFO 20
 // on CPU 0, seen in /proc; where the process may not (not root), one warning says so.
 TEST_F(LcmEndToEnd, TheReceiveThreadRunsWithTheProfilesScheduling) {
-  std::ofstream(dir() / "Rt.xml") << R"(<?xml version="1.0"?>
-<component_profile><name>Rt</name><model>lcm</model>
-  <lcm><url>)" << kUrl << R"(</url><receive_thread policy="SCHED_FIFO" priority="20" cpu="0"/></lcm>
-  <types><file>)" POLYPORT_SOURCE_DIR R"(/config/types/wheelchair.lcm</file></types>
-  <ports><data_port><name>reference</name><data_type>wheelchair_lcm::reference_t</data_type><usage>output</usage></data_port></ports>
-</component_profile>)";
-  std::ofstream(dir() / "rt_app.xml") << R"(<?xml version="1.0"?>
-<application_profile><name>rt</name>
-  <subcomponents><subcomponent><name>rt</name><reference>Rt.xml</reference></subcomponent></subcomponents>
-</application_profile>)";
-  auto daemon = this->daemon(dir() / "rt_app.xml");
+  const fs::path app = one_component_app(
+      "lcm", "<lcm><url>" + std::string(kUrl) + R"(</url><receive_thread policy="SCHED_FIFO" priority="20" cpu="0"/></lcm>)",
+      POLYPORT_SOURCE_DIR "/config/types/wheelchair.lcm", "wheelchair_lcm::reference_t");
+  auto daemon = this->daemon(app);
   const auto receive_thread = [&] { return thread_scheduling(daemon->pid(), "pp-lcm-recv"); };
   ASSERT_TRUE(eventually([&] { return receive_thread().has_value(); })) << daemon->errors();
   const bool allowed = geteuid() == 0;

@@ -202,6 +202,20 @@ class DaemonTest : public ::testing::Test {
     }
     return dir_ / app;
   }
+  // An application of one component `rt` of `model` with one output port `reference` of
+  // `type` (declared in `type_file`) and the model's element `section`, in the test's
+  // folder; returns the application file.
+  fs::path one_component_app(const std::string& model, const std::string& section, const std::string& type_file,
+                             const std::string& type) const {
+    std::ofstream(dir_ / "Rt.xml") << "<?xml version=\"1.0\"?>\n<component_profile><name>Rt</name><model>" << model
+                                   << "</model>\n  " << section << "\n  <types><file>" << type_file
+                                   << "</file></types>\n  <ports><data_port><name>reference</name><data_type>" << type
+                                   << "</data_type><usage>output</usage></data_port></ports>\n</component_profile>\n";
+    std::ofstream(dir_ / "rt_app.xml") << "<?xml version=\"1.0\"?>\n<application_profile><name>rt</name>\n"
+                                          "  <subcomponents><subcomponent><name>rt</name><reference>Rt.xml</reference>"
+                                          "</subcomponent></subcomponents>\n</application_profile>\n";
+    return dir_ / "rt_app.xml";
+  }
   fs::path stats_file() const { return dir_ / "stats.json"; }
   const fs::path& dir() const { return dir_; }
 

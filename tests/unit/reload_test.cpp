@@ -207,13 +207,6 @@ class ReloadEngine : public test::EngineFixture {
     return static_cast<std::size_t>(std::count_if(engine.executors().contexts().begin(), engine.executors().contexts().end(),
                                                   [](const auto& c) { return c->running(); }));
   }
-  std::optional<std::int64_t> latest(DataInPort& probe) {
-    std::optional<std::int64_t> value;
-    std::int64_t v = 0;
-    while (probe.read(&v, sizeof v) == Status::ok) value = v;
-    return value;
-  }
-
   LoadOptions options{{POLYPORT_PLUGIN_DIR}};
   ApplicationProfile application;
   daemon::ProfileReader read = [this](TypeRegistry& into, Diagnostics& found) {
