@@ -68,27 +68,33 @@ ReturnCode ExecutionContext::command(Lifecycle& lifecycle, LifecycleCommand comm
 }
 
 ReturnCode ExecutionContext::call(const std::function<ReturnCode()>& task) {
-  std::unique_lock<std::mutex> lock(command_mutex_);
+  std::unique_lock<PiMutex> lock(command_mutex_);
   // One command at a time; commands are rare, so waiting callers simply queue on the mutex.
   command_done_.wait(lock, [&] { return !command_pending_.load(std::memory_order_acquire) || !running(); });
   if (!running()) return task();  // serialized by the mutex
   command_task_ = &task;
   command_finished_ = false;
   command_pending_.store(true, std::memory_order_release);
+  command_to_run_.store(true, std::memory_order_release);
   wake();
   command_done_.wait(lock, [&] { return command_finished_ || !running(); });
   // If the thread ended before taking the command, run it here, still under the mutex.
   const ReturnCode result = command_finished_ ? command_result_ : task();
+  command_to_run_.store(false, std::memory_order_release);
   command_pending_.store(false, std::memory_order_release);
   command_done_.notify_all();
   return result;
 }
 
 void ExecutionContext::apply_pending_command() {
-  std::lock_guard<std::mutex> lock(command_mutex_);
-  if (!command_pending_.load(std::memory_order_acquire) || command_finished_) return;
+  std::lock_guard<PiMutex> lock(command_mutex_);
+  if (!command_to_run_.load(std::memory_order_acquire) || command_finished_) return;
   command_result_ = (*command_task_)();
   command_finished_ = true;
+  // Done: the thread goes back to sleep. The caller clears command_pending_ once it has read
+  // the result, which may take a while if it is an ordinary thread and this one is real-time;
+  // checking command_pending_ meanwhile would spin this thread until then.
+  command_to_run_.store(false, std::memory_order_release);
   command_done_.notify_all();
 }
 
@@ -116,7 +122,7 @@ void ExecutionContext::sleep_until(MonoTime deadline) {
   for (;;) {
     const std::uint32_t seen = wake_word_.load(std::memory_order_acquire);
     if (stop_requested_.load(std::memory_order_acquire)) return;
-    if (command_pending_.load(std::memory_order_acquire)) {
+    if (command_to_run_.load(std::memory_order_acquire)) {
       apply_pending_command();
       continue;
     }
@@ -129,7 +135,7 @@ void ExecutionContext::sleep_until(MonoTime deadline) {
   // The spin tail: the clock, a pause instruction, and commands and stop as above.
   while (mono_now() < deadline) {
     if (stop_requested_.load(std::memory_order_relaxed)) return;
-    if (command_pending_.load(std::memory_order_relaxed)) apply_pending_command();
+    if (command_to_run_.load(std::memory_order_relaxed)) apply_pending_command();
     cpu_pause();
   }
 }
@@ -151,7 +157,7 @@ void ExecutionContext::run() {
   if (settings_.policy != SchedPolicy::other) prefault_stack();
   MonoTime deadline = mono_now();
   while (!stop_requested_.load(std::memory_order_acquire)) {
-    if (command_pending_.load(std::memory_order_acquire)) apply_pending_command();
+    if (command_to_run_.load(std::memory_order_acquire)) apply_pending_command();
 
     const MonoTime cycle_start = mono_now();
     for (ProvidedServicePort* port : served_) port->serve_queued();
@@ -173,7 +179,7 @@ void ExecutionContext::run() {
     jitter_.record((mono_now() - deadline).count);
   }
   // Let a waiting command caller fall back to running inline.
-  std::lock_guard<std::mutex> lock(command_mutex_);
+  std::lock_guard<PiMutex> lock(command_mutex_);
   running_.store(false, std::memory_order_release);
   command_done_.notify_all();
 }

@@ -1,5 +1,9 @@
 // The shared lifecycle and the periodic execution context.
 #include <gtest/gtest.h>
+#include <pthread.h>
+#include <sched.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
@@ -202,6 +206,47 @@ TEST(ExecutionContext, SpinTailRunsAtItsPeriodTakesCommandsAndStops) {
     EXPECT_GE(ec.wake_jitter().summarize().count, 20u);
     EXPECT_EQ(l.state(), LifecycleState::inactive);
   }
+}
+
+// A real-time context and an ordinary thread that gives it commands, on one CPU: once the
+// context has run a command it must sleep, not wait on the CPU for the caller to collect the
+// result (the caller cannot run while it spins: the kernel's real-time throttling would let it
+// in only after 0.95 s of spinning per command).
+TEST(ExecutionContext, ARealTimeContextSleepsWhileAnOrdinaryCallerCollectsItsCommandsResult) {
+  if (sysconf(_SC_NPROCESSORS_ONLN) < 2) GTEST_SKIP() << "needs two CPUs: the test's own thread stays off CPU 0";
+  Recorder c;
+  Lifecycle l(c);
+  ExecutionContext ec(ExecutionSettings{"rt-cmd", Nanos{100'000'000}, SchedPolicy::fifo, 30, 0, Nanos{0}});
+  ec.add(l);
+  std::vector<std::string> warnings;
+  ec.start(warnings);
+  if (!ec.realtime_applied() || !ec.pinned()) {
+    ec.stop();
+    GTEST_SKIP() << "SCHED_FIFO on CPU 0 not permitted here (root or CAP_SYS_NICE needed): "
+                 << (warnings.empty() ? "" : warnings.front());
+  }
+  rusage before{};
+  getrusage(RUSAGE_SELF, &before);
+  std::thread caller([&] {
+    cpu_set_t cpu0;
+    CPU_ZERO(&cpu0);
+    CPU_SET(0, &cpu0);
+    ASSERT_EQ(pthread_setaffinity_np(pthread_self(), sizeof cpu0, &cpu0), 0);
+    EXPECT_EQ(ec.command(l, LifecycleCommand::initialize), ReturnCode::ok);
+    EXPECT_EQ(ec.command(l, LifecycleCommand::activate), ReturnCode::ok);
+    EXPECT_EQ(ec.command(l, LifecycleCommand::deactivate), ReturnCode::ok);
+  });
+  caller.join();
+  rusage after{};
+  getrusage(RUSAGE_SELF, &after);
+  ec.stop();
+  const auto cpu_us = [](const rusage& r) {
+    return (r.ru_utime.tv_sec + r.ru_stime.tv_sec) * 1'000'000L + r.ru_utime.tv_usec + r.ru_stime.tv_usec;
+  };
+  EXPECT_EQ(l.state(), LifecycleState::inactive);
+  // Three commands cost microseconds; a context spinning until each caller runs again burns
+  // most of a second per command. A tenth of that separates the two.
+  EXPECT_LT(cpu_us(after) - cpu_us(before), 95'000L) << "the context spun while its caller could not run";
 }
 
 TEST(ExecutionContext, SpinTailIsAtMostThePeriod) {

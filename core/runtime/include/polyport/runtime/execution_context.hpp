@@ -27,6 +27,7 @@
 
 #include "polyport/base/clock.hpp"
 #include "polyport/runtime/histogram.hpp"
+#include "polyport/runtime/pi_mutex.hpp"
 #include "polyport/runtime/lifecycle.hpp"
 #include "polyport/profile/profile.hpp"
 
@@ -105,10 +106,12 @@ class ExecutionContext {
   std::atomic<bool> stop_requested_{false};
   std::atomic<std::uint32_t> wake_word_{0};  // a futex: bumped to wake the sleeping thread
 
-  // One pending command at a time, handed over under the mutex (control path only).
-  std::mutex command_mutex_;
-  std::condition_variable command_done_;
-  std::atomic<bool> command_pending_{false};
+  // One pending command at a time, handed over under the mutex (control path only). The mutex
+  // inherits priority: a real-time context never waits behind an ordinary caller thread.
+  PiMutex command_mutex_;
+  PiCondition command_done_;
+  std::atomic<bool> command_pending_{false};  // a caller's command is in (callers queue behind it)
+  std::atomic<bool> command_to_run_{false};   // ... and this thread has not run it yet
   const std::function<ReturnCode()>* command_task_ = nullptr;
   ReturnCode command_result_{};
   bool command_finished_ = false;
