@@ -21,7 +21,8 @@ packages=(
   python3-matplotlib python3-numpy  # the wheelchair suite's report: tables and PNG plots
   libsystemd-dev         # sd_notify: polyportd under a Type=notify unit with the watchdog
   debootstrap            # scripts/test_deb.sh: a clean Debian 12 root to install the .deb in
-  python3-prometheus-client  # the reference parser of the metrics test (Prometheus text format)
+  python3-prometheus-client  # the reference parser of the metrics test (Prometheus text format); the benchmarks read /metrics with it
+  stress-ng              # scripts/bench_stress.sh: the CPU and memory stressor of the jitter benchmark
   # The vm tests (scripts/vcan-run installs these itself when missing; here CI has them up front):
   user-mode-linux        # a Linux kernel run as a process, with CAN modules: the host kernel has no CAN
   busybox-static         # the UML guest's init: mounts, insmod and ip without dynamic execs
