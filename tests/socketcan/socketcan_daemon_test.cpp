@@ -5,6 +5,8 @@
 // statistics. cansend, candump and ip are the peers; every wait has a deadline.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <chrono>
 #include <string>
 
@@ -71,6 +73,29 @@ TEST_F(SocketCanDaemon, SurvivesDeletingAndReAddingItsInterface) {
     EXPECT_EQ(can["link"], "up") << can.dump(2);
   }
   EXPECT_TRUE(found) << stats.dump(2);
+}
+
+// The CAN receive thread runs with the scheduling <socketcan><receive_thread> asks for:
+// SCHED_FIFO 30 on CPU 0, seen in /proc; where the process may not (not root), one warning says so.
+TEST_F(SocketCanDaemon, TheReceiveThreadRunsWithTheProfilesScheduling) {
+  const test::fs::path app = one_component_app(
+      "socketcan", R"(<socketcan><interface>vcan0</interface><receive_thread policy="SCHED_FIFO" priority="30" cpu="0"/></socketcan>)",
+      POLYPORT_TEST_DATA "/dbc/vehicle.dbc", "vehicle::EngineData");
+  auto daemon_process = daemon(app);
+  const auto receive_thread = [&] { return test::thread_scheduling(daemon_process->pid(), "pp-can-epoll"); };
+  ASSERT_TRUE(test::eventually([&] { return receive_thread().has_value(); })) << daemon_process->errors();
+  const bool allowed = geteuid() == 0;
+  if (allowed) {
+    EXPECT_EQ(receive_thread()->second, 1) << "SCHED_FIFO";
+    EXPECT_EQ(receive_thread()->first, 30);
+  } else {
+    EXPECT_NE(daemon_process->errors().find("real-time priority 30 refused"), std::string::npos)
+        << daemon_process->errors();
+  }
+  const test::Json stats = stop(*daemon_process);
+  const test::Json thread = stats["components"][0]["socketcan"]["receive_thread"];
+  EXPECT_EQ(thread.value("asked", ""), "SCHED_FIFO 30 on CPU 0") << stats.dump(2);
+  EXPECT_EQ(thread.value("realtime", !allowed), allowed) << stats.dump(2);
 }
 
 }  // namespace
