@@ -11,6 +11,18 @@ import sys
 HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "benchmarks", "scale")
 
 
+def write_component_profiles(out_dir, period_ms):
+    """ScaleSource.xml and ScaleSink.xml in OUT_DIR, periodic at PERIOD_MS (also used by
+    benchmarks/soak/soak.py)."""
+    os.makedirs(out_dir, exist_ok=True)
+    here = os.path.realpath(HERE)
+    for name in ("ScaleSource.xml", "ScaleSink.xml"):
+        with open(os.path.join(here, name)) as template:
+            text = template.read().replace("@PERIOD_MS@", f"{period_ms:g}").replace("@DIR@", here)
+        with open(os.path.join(out_dir, name), "w") as out:
+            out.write(text)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("n", type=int, help="connections (source -> sink pairs)")
@@ -20,13 +32,7 @@ def main():
     args = parser.parse_args()
     if args.n < 1:
         sys.exit("gen_scale_profile: N must be at least 1")
-    os.makedirs(args.out_dir, exist_ok=True)
-    here = os.path.realpath(HERE)
-    for name in ("ScaleSource.xml", "ScaleSink.xml"):
-        with open(os.path.join(here, name)) as template:
-            text = template.read().replace("@PERIOD_MS@", f"{args.period_ms:g}").replace("@DIR@", here)
-        with open(os.path.join(args.out_dir, name), "w") as out:
-            out.write(text)
+    write_component_profiles(args.out_dir, args.period_ms)
     width = len(str(args.n))
     lines = ['<?xml version="1.0" encoding="UTF-8"?>',
              f"<!-- {args.n} source -> sink pairs, made by scripts/gen_scale_profile.py -->",
