@@ -3,7 +3,11 @@
 //   plain            a clock_nanosleep(TIMER_ABSTIME) loop with timer slack 1 ns, the floor
 //                    any sleeping thread can reach on this kernel;
 //   ec               a polyport ExecutionContext at its default settings (futex sleep);
-//   ec-spin<N>us     an ExecutionContext with an N us spin tail.
+//   ec-spin<N>us     an ExecutionContext with an N us spin tail;
+//   cpu-gaps         no sleep: a thread that only reads the clock, recording per period the
+//                    longest time between two reads: how long the thread lost its CPU (to the
+//                    guest's scheduler, interrupts, or the host stopping the vCPU). A spin tail
+//                    cannot wake more punctually than that.
 // The cases take turns in chunks (plain, ec, ec-spin..., plain, ...), so a change of load on
 // the shared machine falls on all of them alike. Each context lives for the whole run and is
 // started and stopped once per chunk; its own wake-jitter histogram (the one polyportd reports)
@@ -57,8 +61,9 @@ struct Case {
   Nanos period{0};
   Nanos spin{0};
   bool plain = false;
-  std::unique_ptr<ExecutionContext> context;  // null for the plain loop
-  LatencyHistogram plain_lateness;            // the plain loop's samples
+  bool gaps = false;                          // the cpu-gaps case (plain is false too)
+  std::unique_ptr<ExecutionContext> context;  // null for the plain loop and cpu-gaps
+  LatencyHistogram plain_lateness;            // the plain loop's (or cpu-gaps') samples
   long timer_slack_ns = -1;
 };
 
@@ -87,7 +92,35 @@ void plain_loop(Case& c, std::uint64_t periods) {
   }
 }
 
+// `periods` periods of spinning on the clock; per period, the longest gap between two reads.
+void gap_loop(Case& c, std::uint64_t periods) {
+  if (fifo_priority > 0) {
+    sched_param param{};
+    param.sched_priority = fifo_priority;
+    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
+      fifo_refused = true;
+      return;
+    }
+  }
+  MonoTime previous = mono_now();
+  MonoTime end_of_period = previous + c.period;
+  for (std::uint64_t i = 0; i < periods; ++i) {
+    std::int64_t longest = 0;
+    for (MonoTime now = mono_now(); now < end_of_period; now = mono_now()) {
+      longest = std::max(longest, (now - previous).count);
+      previous = now;
+    }
+    c.plain_lateness.record(longest);
+    end_of_period = end_of_period + c.period;
+  }
+}
+
 void run_chunk(Case& c, std::uint64_t periods) {
+  if (c.gaps) {
+    std::thread thread([&] { gap_loop(c, periods); });
+    thread.join();
+    return;
+  }
   if (c.plain) {
     std::thread thread([&] { plain_loop(c, periods); });
     thread.join();
@@ -174,6 +207,11 @@ int main(int argc, char** argv) {
     plain->period = period;
     plain->plain = true;
     cases.push_back(std::move(plain));
+    auto gaps = std::make_unique<Case>();
+    gaps->name = "cpu-gaps" + suffix;
+    gaps->period = period;
+    gaps->gaps = true;
+    cases.push_back(std::move(gaps));
     std::vector<double> spins{0};
     spins.insert(spins.end(), spin_us.begin(), spin_us.end());
     for (const double s : spins) {
@@ -229,14 +267,16 @@ int main(int argc, char** argv) {
   result["cases"] = bench::Json::array();
   std::printf("%-22s %10s %10s %10s %10s %10s\n", "case", "n", "p50 us", "p99 us", "p99.9 us", "max us");
   for (const auto& c : cases) {
-    const LatencyHistogram& h = c->plain ? c->plain_lateness : c->context->wake_jitter();
+    const LatencyHistogram& h = c->context ? c->context->wake_jitter() : c->plain_lateness;
     bench::Json j{{"name", c->name},
                   {"period_ns", c->period.count},
                   {"spin_us", c->spin.count / 1000},
-                  {"kind", c->plain ? "clock_nanosleep loop" : "ExecutionContext"},
+                  {"kind", c->plain  ? "clock_nanosleep loop"
+                           : c->gaps ? "spinning on the clock: longest gap between two reads per period"
+                                     : "ExecutionContext"},
                   {"timer_slack_ns", c->timer_slack_ns},
                   {"lateness_ns", summarize(h)}};
-    if (!c->plain) j["overruns"] = c->context->overruns();
+    if (c->context) j["overruns"] = c->context->overruns();
     const LatencyHistogram::Summary s = h.summarize();
     std::printf("%-22s %10llu %10.1f %10.1f %10.1f %10.1f\n", c->name.c_str(),
                 static_cast<unsigned long long>(s.count), static_cast<double>(s.p50) / 1e3,
