@@ -5,6 +5,7 @@
 //   1  a run-time failure (a component did not start, a file could not be written)
 //   2  bad command line
 //   3  a profile has problems (each printed as file:line:col: element path: message)
+#include <malloc.h>
 #include <poll.h>
 #include <signal.h>
 #include <sys/signalfd.h>
@@ -616,6 +617,12 @@ int run_daemon(const Options& options) {
         daemon::add_histogram_buckets(engine, stats);
         return daemon::render_prometheus(stats);
       });
+    }
+    if ((fds[1].revents | fds[2].revents) & POLLIN) {
+      // The statistics JSON and the metrics text of a request are large and short-lived; the
+      // free memory they leave behind (here and in the server threads' malloc arenas) goes
+      // back to the system, so a daemon polled for months keeps a flat RSS.
+      malloc_trim(0);
     }
     if (tracer.active()) tracer.drain();
     if (traces.active()) {
