@@ -78,6 +78,13 @@ std::vector<MemberOutcome> command_members(Engine& engine, const CompositeSpec& 
       out.push_back(std::move(outcome));
       continue;
     }
+    // Reset is the way out of the error state; a member that is not there needs none.
+    if (command == LifecycleCommand::reset && before != to_string(LifecycleState::error)) {
+      outcome.state = before;
+      outcome.outcome = "not in error";
+      out.push_back(std::move(outcome));
+      continue;
+    }
     const ReturnCode code = interceptor->command(command);
     outcome.state = interceptor->status().state;
     outcome.refused = code != ReturnCode::ok;

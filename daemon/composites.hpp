@@ -33,8 +33,9 @@ struct MemberOutcome {
 
 // Applies `command` to every member of `composite`: activate in the order the members were
 // first promoted, deactivate in the reverse order, reset in promote order. A member already in
-// the state the command leads to is left alone (a facade activated twice is not an error);
-// the first refusal stops the walk, and the members done before it stay done.
+// the state the command leads to is left alone (a facade activated twice is not an error), and
+// reset goes only to members in the error state; the first refusal stops the walk, and the
+// members done before it stay done.
 std::vector<MemberOutcome> command_members(Engine& engine, const CompositeSpec& composite, LifecycleCommand command);
 
 }  // namespace polyport::daemon

@@ -201,14 +201,16 @@ std::optional<std::string> ControlRequests::composite_command(const admin::Reque
   const std::vector<MemberOutcome> outcomes = command_members(engine_, *composite, command);
   nlohmann::json members = nlohmann::json::array();
   std::string refusal;
+  std::string done;  // the members the command changed before one refused
   for (const MemberOutcome& m : outcomes) {
     members.push_back({{"component", m.component}, {"state", m.state}, {"outcome", m.outcome}});
     if (m.refused) refusal = m.component + ": " + m.outcome + " (state " + m.state + ")";
+    if (m.outcome == "done") done += (done.empty() ? "" : ", ") + m.component;
   }
   if (!refusal.empty()) {
     return admin::error_reply(request.id, admin::kRefused,
                               std::string(to_string(command)) + " " + composite->name + ": member " + refusal +
-                                  "; members before it: " + std::to_string(outcomes.size() - 1) + " done");
+                                  "; done before it: " + (done.empty() ? "none" : done));
   }
   spdlog::info("admin: {} composite {}: {} member(s)", to_string(command), composite->name, outcomes.size());
   return admin::ok_reply(request.id, {{"composite", composite->name}, {"members", std::move(members)}});

@@ -41,8 +41,8 @@ class CompositeEndToEnd : public DaemonTest {
   void SetUp() override {
     DaemonTest::SetUp();
     isolate_with_multicast_route();
-    app_ = fill_templates(POLYPORT_TEST_DATA "/composite", {{"@URL@", kUrl}, {"@SRC@", POLYPORT_SOURCE_DIR}},
-                          "composite_app.xml");
+    app_ = fill_templates(POLYPORT_TEST_DATA "/composite",
+                          {{"@URL@", kUrl}, {"@CAP@", "16"}, {"@SRC@", POLYPORT_SOURCE_DIR}}, "composite_app.xml");
     socket_ = dir() / "admin.sock";
   }
 
@@ -244,6 +244,36 @@ TEST_F(CompositeEndToEnd, AReloadRepointsTheConnectionsOfAChangedComposite) {
   const Json* link = connection(stats, "source.pose -> sink.pose");
   ASSERT_NE(link, nullptr);
   EXPECT_EQ((*link)["conversion"], "passthrough") << link->dump(2);
+}
+
+// A service connection between a composite's promoted ports: an LCM client built with lcm-gen
+// calls add through Calc.caller -> Calc.provider, the in-process PeerAdder answers each call.
+TEST_F(CompositeEndToEnd, AServiceConnectionNamingTheCompositeAnswersEveryCall) {
+  const fs::path service_app = dir() / "service_app.xml";
+  const Ctl check = run(POLYPORTD, {"check", service_app.string(), "--json"});
+  ASSERT_EQ(check.code, 0) << check.err;
+  const Json graph = check.json();
+  ASSERT_EQ(graph["composites"].size(), 1u) << check.out;
+  EXPECT_EQ(graph["composites"][0]["ports"][0]["direction"], "required") << check.out;
+  EXPECT_EQ(graph["composites"][0]["ports"][1]["member"], "adder.calc") << check.out;
+  EXPECT_EQ(graph["composites"][0]["ports"][1]["service_type"], "peer::Calc") << check.out;
+
+  auto daemon = this->daemon(service_app);
+  auto client = peer(LCM_PEER, "client", {"call", kUrl, "CALC_ADD_REQUEST", "CALC_ADD_REPLY", "5", "5000"});
+  ASSERT_EQ(client->wait(60s), 0) << client->errors() << daemon->errors();
+  int requests = 0;
+  EXPECT_EQ(checked_replies(*client, requests), 5);
+  const Json stats = stop(*daemon);
+  bool served = false;
+  for (const Json& c : stats["components"]) {
+    if (c["name"] != "client" || !c.contains("lcm") || c["lcm"]["services"].empty()) continue;
+    const Json& counters = c["lcm"]["services"][0]["counters"];
+    EXPECT_GE(counters["calls"].get<int>(), 5) << counters.dump();
+    EXPECT_EQ(counters["replies"], counters["calls"]) << counters.dump();
+    EXPECT_EQ(counters["errors"], 0) << counters.dump();
+    served = true;
+  }
+  EXPECT_TRUE(served) << stats.dump(2);
 }
 
 }  // namespace
