@@ -39,6 +39,9 @@ void Loader::read_composites(const Reporter& report, pugi::xml_node element, App
         report.error_text(name_node, "duplicate composite name " + in_quotes(*name) + ": already used at line " +
                                          std::to_string(report.xml().at(it->second).line));
         usable = false;
+      } else if (name->find('.') != std::string::npos) {
+        report.error_text(name_node, "composite name " + in_quotes(*name) + " contains '.' (connections write Name.port)");
+        usable = false;
       } else if (const Subcomponent* component = app.find_component(*name)) {
         // Connections name both the same way ("Name.port"), so one name cannot be both.
         report.error_text(name_node, "composite name " + in_quotes(*name) +

@@ -133,9 +133,13 @@ TEST_F(Composites, EveryProblemAtItsPlace) {
       "component's port)",
       "bad_composites.xml:35:5: /application_profile/composites/composite[5]: "
       "a composite promotes at least one port (<promote>)",
-      "bad_composites.xml:42:7: /application_profile/port_connections/port_connection[1]/target: "
+      "bad_composites.xml:38:22: /application_profile/composites/composite[6]/name: "
+      "composite name 'A.B' contains '.' (connections write Name.port)",
+      "bad_composites.xml:38:32: /application_profile/composites/composite[6]/promote: "
+      "promoted name 'x.y' contains '.'",
+      "bad_composites.xml:43:7: /application_profile/port_connections/port_connection[1]/target: "
       "composite 'Chair' promotes no port 'monitor' (it promotes: stick)",
-      "bad_composites.xml:46:7: /application_profile/port_connections/port_connection[2]/target: "
+      "bad_composites.xml:47:7: /application_profile/port_connections/port_connection[2]/target: "
       "Chair.stick (Joystick.joystick) is an output port; a data connection's target must be an input port",
   }));
 }
