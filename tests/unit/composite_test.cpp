@@ -99,6 +99,10 @@ TEST_F(Composites, ResolveEveryConnectionToTheMemberPorts) {
   // Different types across a composite's ports map by name as across the members' own:
   // Control.reference is wheelchair::Reference and Motor.reference ::wheelchair::Reference.
   EXPECT_EQ(app->connections[1].program, nullptr);
+  // A watchdog's upstream port may be a composite's too.
+  ASSERT_TRUE(app->connections[1].watchdog && app->connections[1].watchdog->upstream);
+  EXPECT_EQ(path(*app->connections[1].watchdog->upstream), "Joystick.joystick");
+  EXPECT_EQ(app->connections[1].watchdog->upstream->promoted, "Chair.stick");
 
   EXPECT_EQ(app->member_path("Chair.stick"), "Joystick.joystick");
   EXPECT_EQ(app->member_path("Brain.motor"), "Control.motor");
