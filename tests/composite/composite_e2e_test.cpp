@@ -4,11 +4,15 @@
 // and the profile's connections name only Pipeline's ports. Every pose that reaches POSE_OUT
 // is checked field by field (the relay adds 100000 to the id). `polyportd check --json` and
 // `polyportctl list` show what each promoted name stands for; lifecycle commands sent to the
-// composite reach its members; run-time wiring takes the composite's names.
+// composite reach its members; run-time wiring takes the composite's names; a reload
+// repoints a promoted name. Also: a service connection between a composite's ports (an
+// lcm-gen client, the in-process PeerAdder), and a composite over three models (an idlc
+// Cyclone DDS publisher as the source).
 //
 // Each case runs in a network namespace of its own with a multicast route on loopback (needs
 // root, as tests/lcm_e2e).
 
+#include <cstdlib>
 #include <fstream>
 #include <iterator>
 #include <set>
@@ -42,7 +46,8 @@ class CompositeEndToEnd : public DaemonTest {
     DaemonTest::SetUp();
     isolate_with_multicast_route();
     app_ = fill_templates(POLYPORT_TEST_DATA "/composite",
-                          {{"@URL@", kUrl}, {"@CAP@", "16"}, {"@SRC@", POLYPORT_SOURCE_DIR}}, "composite_app.xml");
+                          {{"@URL@", kUrl}, {"@CAP@", "16"}, {"@A@", "17"}, {"@SRC@", POLYPORT_SOURCE_DIR}},
+                          "composite_app.xml");
     socket_ = dir() / "admin.sock";
   }
 
@@ -274,6 +279,28 @@ TEST_F(CompositeEndToEnd, AServiceConnectionNamingTheCompositeAnswersEveryCall) 
     served = true;
   }
   EXPECT_TRUE(served) << stats.dump(2);
+}
+
+// Three models behind one composite: a Cyclone DDS application built with idlc publishes
+// poses in domain 17, the composite's connections take them through the in-process relay to
+// the LCM channel POSE_OUT, where an lcm-gen subscriber checks every field.
+TEST_F(CompositeEndToEnd, ACompositeOverThreeModelsDeliversEveryField) {
+  if (std::string(CYCLONE_PEER).empty()) FAIL() << "cyclone_peer was not built (the Cyclone DDS model is needed)";
+  // The peer speaks on loopback, as polyport's Cyclone model does by default.
+  setenv("CYCLONEDDS_URI", "file://" POLYPORT_SOURCE_DIR "/config/cyclonedds-loopback.xml", 1);
+  auto sub = peer(LCM_PEER, "sub", {"sub", kUrl, "POSE_OUT"});
+  auto daemon = this->daemon(dir() / "dds_app.xml");
+  auto pub = peer(CYCLONE_PEER, "dds_pub", {"pub", "17", "pose", "0", "10"} /* COUNT 0: until stopped */);
+  ASSERT_TRUE(eventually([&] { return poses(*sub).size() >= 10; }, 60s))
+      << "sub: " << poses(*sub).size() << " poses\n" << daemon->errors() << pub->errors();
+  const std::vector<Json> got = poses(*sub);
+  for (const Json& pose : got) expect_pose(pose, kRelayOffset);
+  expect_increasing(got);
+  pub.reset();
+  const Json stats = stop(*daemon);
+  const Json* in = connection(stats, "source.pose -> relay.in");
+  ASSERT_NE(in, nullptr);
+  EXPECT_NE((*in)["conversion"], "passthrough") << in->dump(2);  // DDS decoded for the in-process relay
 }
 
 }  // namespace
