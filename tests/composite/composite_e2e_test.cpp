@@ -139,6 +139,19 @@ TEST_F(CompositeEndToEnd, CheckShowsWhatEachPromotedNameStandsFor) {
                              "port 'output' (ports: in, out)"),
             std::string::npos)
       << refused.err;
+
+  // Across profiles given together, a composite's name must not be another profile's component.
+  std::ofstream(dir() / "other_app.xml")
+      << "<?xml version=\"1.0\"?>\n<application_profile><name>other</name>\n  <types><file>" POLYPORT_SOURCE_DIR
+         "/config/types/polyport_rpc.idl</file><file>" POLYPORT_SOURCE_DIR "/tests/dds_peers/peer.idl</file></types>\n"
+         "  <subcomponents><subcomponent><name>Pipeline</name><reference>PoseRelay.xml</reference></subcomponent>"
+         "</subcomponents>\n</application_profile>\n";
+  const Ctl clash = run(POLYPORTD, {"check", app_.string(), (dir() / "other_app.xml").string()});
+  EXPECT_NE(clash.code, 0);
+  EXPECT_NE(clash.err.find(app_.string() + ":19:5: composite name 'Pipeline' is already used at " +
+                           (dir() / "other_app.xml").string() + ":4:18"),
+            std::string::npos)
+      << clash.err;
 }
 
 TEST_F(CompositeEndToEnd, ConnectionsNamingTheCompositeDeliverEveryField) {
