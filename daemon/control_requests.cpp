@@ -1,5 +1,7 @@
 #include "control_requests.hpp"
 
+#include "composites.hpp"
+
 #include <spdlog/spdlog.h>
 
 #include <charconv>
@@ -152,7 +154,8 @@ std::string ControlRequests::connect(const admin::Request& request) {
     return admin::error_reply(request.id, admin::kRefused,
                               request.source + " -> " + request.target + ": " + added.error().message);
   }
-  added_.emplace(request.source, request.target);
+  // By the member ports' names: a composite's are only another way to write them.
+  added_.emplace(spec->source.component + "." + spec->source.port, spec->target.component + "." + spec->target.port);
   const Connection* connection = added.value();
   if (connection == nullptr) {  // a service connection: the caller's binding, replaced whole
     spdlog::info("admin: connected {} -> {} (service)", request.source, request.target);
@@ -168,26 +171,53 @@ std::string ControlRequests::connect(const admin::Request& request) {
 }
 
 std::string ControlRequests::disconnect(const admin::Request& request) {
+  // A composite's port stands for its member's: the engine knows only the latter.
+  const std::string source = application_.member_path(request.source);
+  const std::string target = application_.member_path(request.target);
   nlohmann::json graph;
   engine_.describe(graph);
   bool known = false;  // data, event and service connections alike
   for (const auto& c : graph["connections"]) {
-    known = known || (c.value("source", "") == request.source && c.value("target", "") == request.target);
+    known = known || (c.value("source", "") == source && c.value("target", "") == target);
   }
-  const bool runtime = added_.count({request.source, request.target}) != 0;
-  Result<void> removed = engine_.remove_connection(request.source, request.target);
+  const bool runtime = added_.count({source, target}) != 0;
+  Result<void> removed = engine_.remove_connection(source, target);
   if (!removed) {
     return admin::error_reply(request.id, known ? admin::kRefused : admin::kUnknownConnection,
                               removed.error().message);
   }
-  added_.erase({request.source, request.target});
-  spdlog::info("admin: disconnected {} -> {}", request.source, request.target);
-  return admin::ok_reply(request.id, {{"source", request.source},
-                                      {"target", request.target},
-                                      {"origin", runtime ? "run time" : "profile"}});
+  added_.erase({source, target});
+  spdlog::info("admin: disconnected {} -> {}", source, target);
+  nlohmann::json reply{{"source", source}, {"target", target}, {"origin", runtime ? "run time" : "profile"}};
+  if (source != request.source) reply["source_promoted"] = request.source;
+  if (target != request.target) reply["target_promoted"] = request.target;
+  return admin::ok_reply(request.id, reply);
+}
+
+std::optional<std::string> ControlRequests::composite_command(const admin::Request& request,
+                                                              LifecycleCommand command) {
+  const CompositeSpec* composite = application_.find_composite(request.component);
+  if (composite == nullptr) return std::nullopt;
+  const std::vector<MemberOutcome> outcomes = command_members(engine_, *composite, command);
+  nlohmann::json members = nlohmann::json::array();
+  std::string refusal;
+  std::string done;  // the members the command changed before one refused
+  for (const MemberOutcome& m : outcomes) {
+    members.push_back({{"component", m.component}, {"state", m.state}, {"outcome", m.outcome}});
+    if (m.refused) refusal = m.component + ": " + m.outcome + " (state " + m.state + ")";
+    if (m.outcome == "done") done += (done.empty() ? "" : ", ") + m.component;
+  }
+  if (!refusal.empty()) {
+    return admin::error_reply(request.id, admin::kRefused,
+                              std::string(to_string(command)) + " " + composite->name + ": member " + refusal +
+                                  "; done before it: " + (done.empty() ? "none" : done));
+  }
+  spdlog::info("admin: {} composite {}: {} member(s)", to_string(command), composite->name, outcomes.size());
+  return admin::ok_reply(request.id, {{"composite", composite->name}, {"members", std::move(members)}});
 }
 
 void ControlRequests::annotate(nlohmann::json& graph) const {
+  describe_composites(application_, graph);
   for (auto& c : graph["connections"]) {
     const bool runtime = added_.count({c.value("source", ""), c.value("target", "")}) != 0;
     c["origin"] = runtime ? "run time" : "profile";

@@ -7,6 +7,7 @@
 // published by swapping the ports' connection lists.
 #pragma once
 
+#include <optional>
 #include <set>
 #include <string>
 #include <utility>
@@ -17,6 +18,7 @@
 #include "reload.hpp"
 #include "polyport/profile/profile.hpp"
 #include "polyport/runtime/engine.hpp"
+#include "polyport/runtime/lifecycle.hpp"
 
 namespace polyport::daemon {
 
@@ -36,8 +38,14 @@ class ControlRequests {
   // diff as JSON, or why the running graph was kept.
   Result<nlohmann::json> reload(const ProfileReader& read, std::vector<std::string>& warnings);
   std::string reload(const admin::Request& request, const ProfileReader& read);
-  // Marks each connection of `list`'s graph with its origin: "profile" or "run time".
+  // Marks each connection of `list`'s graph with its origin: "profile" or "run time", and adds
+  // the composites (composites.hpp).
   void annotate(nlohmann::json& graph) const;
+  // activate / deactivate / reset sent to a composite: applied to its members
+  // (composites.hpp: command_members). Nullopt when `request.component` names no composite.
+  std::optional<std::string> composite_command(const admin::Request& request, LifecycleCommand command);
+  // "Component.port" for a composite's "Composite.name"; `path` itself otherwise.
+  std::string member_path(const std::string& path) const { return application_.member_path(path); }
 
  private:
   // The component named by the request, or an unknown_component reply in `refusal`.

@@ -65,7 +65,7 @@ void print_reload(const json& result, std::ostream& out) {
     return;
   }
   out << "reloaded:\n";
-  for (const char* part : {"components", "connections"}) {
+  for (const char* part : {"components", "connections", "composites"}) {
     for (const char* how : {"added", "removed", "changed"}) {
       const json names = result.value(part, json::object()).value(how, json::array());
       if (names.empty()) continue;
@@ -213,6 +213,16 @@ void print_list(const json& g, std::ostream& out) {
     if (c.contains("depth")) policy += "/" + text(c, "depth");
     rows.push_back({text(c, "source") + " -> " + text(c, "target"), text(c, "kind"), policy, text(c, "mode"),
                     text(c, "conversion"), text(c, "origin")});
+  }
+  table(out, rows);
+  // A composite's names stand for its members' ports; the connections above are those ports'.
+  if (g.value("composites", json::array()).empty()) return;
+  out << "\n";
+  rows = {{"COMPOSITE PORT", "MEMBER PORT", "KIND", "DIRECTION"}};
+  for (const auto& c : g["composites"]) {
+    for (const auto& p : c.value("ports", json::array())) {
+      rows.push_back({text(c, "name") + "." + text(p, "name"), text(p, "member"), text(p, "kind"), text(p, "direction")});
+    }
   }
   table(out, rows);
 }
@@ -394,8 +404,8 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0.1, 86400.0));
   commands.emplace_back(stats, Command::stats);
-  for (auto [name, command, help] : {std::tuple{"activate", Command::activate, "activate COMPONENT"},
-                                     std::tuple{"deactivate", Command::deactivate, "deactivate COMPONENT"},
+  for (auto [name, command, help] : {std::tuple{"activate", Command::activate, "activate COMPONENT (a composite: its members)"},
+                                     std::tuple{"deactivate", Command::deactivate, "deactivate COMPONENT (a composite: its members)"},
                                      std::tuple{"reset", Command::reset, "reset COMPONENT (from its error state)"}}) {
     CLI::App* sub = app.add_subcommand(name, help);
     sub->add_option("component", request.component, "component name")->required();
@@ -506,6 +516,16 @@ int main(int argc, char** argv) {
         print_reload(result, std::cout);
         break;
       default:
+        if (result.contains("composite")) {  // a composite's members, in the order they were told
+          std::cout << text(result, "composite") << ":";
+          for (const auto& m : result.value("members", json::array())) {
+            std::cout << " " << text(m, "component") << " " << text(m, "state");
+            if (text(m, "outcome") != "done") std::cout << " (" << text(m, "outcome") << ")";
+            std::cout << ";";
+          }
+          std::cout << "\n";
+          break;
+        }
         std::cout << text(result, "component") << ": " << text(result, "state") << "\n";
     }
     return kExitOk;

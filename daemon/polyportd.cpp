@@ -24,6 +24,7 @@
 
 #include "admin_protocol.hpp"
 #include "admin_server.hpp"
+#include "composites.hpp"
 #include "control_requests.hpp"
 #include "metrics.hpp"
 #include "metrics_server.hpp"
@@ -123,6 +124,19 @@ std::optional<ApplicationProfile> read_profiles(const Options& options, const Mo
     }
     for (Subcomponent& c : profile->components) application.components.push_back(std::move(c));
     for (ConnectionSpec& c : profile->connections) application.connections.push_back(std::move(c));
+    for (CompositeSpec& c : profile->composites) application.composites.push_back(std::move(c));
+  }
+  // Each profile checks its own names; across profiles a composite must not take a name
+  // another profile gives a component or a composite (connections name both alike).
+  for (std::size_t i = 0; i < application.composites.size(); ++i) {
+    const CompositeSpec& c = application.composites[i];
+    const Subcomponent* component = application.find_component(c.name);
+    const CompositeSpec* first = application.find_composite(c.name);
+    if (component == nullptr && first == &c) continue;
+    const SourceLocation& other = component != nullptr ? component->where : first->where;
+    diagnostics.error(c.where, "", "composite name '" + c.name + "' is already used at " + other.file + ":" +
+                                       std::to_string(other.line) + ":" + std::to_string(other.column));
+    ok = false;
   }
   if (!ok) return std::nullopt;
   return application;
@@ -218,6 +232,10 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
   out << "connections:\n";
   for (const auto& c : graph["connections"]) {
     out << "  " << c.value("kind", "") << "  " << c.value("source", "") << " -> " << c.value("target", "");
+    if (c.contains("source_promoted") || c.contains("target_promoted")) {
+      out << "  (as " << c.value("source_promoted", c.value("source", "")) << " -> "
+          << c.value("target_promoted", c.value("target", "")) << ")";
+    }
     if (c.contains("type")) out << "  type=" << c["type"].get<std::string>();
     if (c.contains("policy")) out << "  policy=" << c["policy"].get<std::string>();
     if (c.contains("depth")) out << "  depth=" << c["depth"];
@@ -239,6 +257,21 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
     }
     out << "\n";
   }
+  if (!graph.value("composites", nlohmann::json::array()).empty()) {
+    out << "composites:\n";
+    for (const auto& c : graph["composites"]) {
+      out << "  " << c.value("name", "") << "  members:";
+      for (const auto& m : c["members"]) out << " " << m.get<std::string>();
+      out << "\n";
+      for (const auto& p : c["ports"]) {
+        out << "    " << p.value("direction", "") << " " << p.value("kind", "") << " " << p.value("name", "") << " = "
+            << p.value("member", "");
+        if (p.contains("type")) out << "  type=" << p["type"].get<std::string>();
+        if (p.contains("service_type")) out << "  service=" << p["service_type"].get<std::string>();
+        out << "\n";
+      }
+    }
+  }
   out << "execution contexts:\n";
   for (const auto& e : graph["execution_contexts"]) {
     out << "  " << e.value("name", "") << "  period=" << e.value("period_ns", 0) / 1e6 << " ms";
@@ -258,9 +291,11 @@ int run_check(const Options& options) {
   ModelRegistry models;
   daemon::register_models(models);
   Engine engine(models, types);
-  if (!load(options, models, engine, types)) return kExitProfile;
+  ApplicationProfile application;
+  if (!load(options, models, engine, types, &application)) return kExitProfile;
   nlohmann::json graph;
   engine.describe(graph);
+  daemon::describe_composites(application, graph);
   if (options.json) {
     std::cout << graph.dump(2) << "\n";
   } else {
@@ -379,7 +414,7 @@ std::string answer(const admin::Request& request, std::uint64_t client, Engine& 
     case Command::trace: {
       // Streamed: samples follow as the main loop drains the probe (TraceStreams::drain).
       std::optional<std::string> refused =
-          traces.open(engine, client, request.id, request.port, request.count, request.duration_s);
+          traces.open(engine, client, request.id, control.member_path(request.port), request.count, request.duration_s);
       return refused ? *refused : daemon::AdminServer::kStreaming;
     }
     case Command::hello: {
@@ -418,8 +453,12 @@ std::string answer(const admin::Request& request, std::uint64_t client, Engine& 
     case Command::activate:
     case Command::deactivate:
     case Command::reset: {
+      const LifecycleCommand command = request.command == Command::activate     ? LifecycleCommand::activate
+                                       : request.command == Command::deactivate ? LifecycleCommand::deactivate
+                                                                                : LifecycleCommand::reset;
       Interceptor* interceptor = engine.find_interceptor(request.component);
       if (interceptor == nullptr) {
+        if (auto reply = control.composite_command(request, command)) return *reply;
         nlohmann::json graph;
         engine.describe(graph);
         std::string names;
@@ -427,9 +466,6 @@ std::string answer(const admin::Request& request, std::uint64_t client, Engine& 
         return admin::error_reply(request.id, admin::kUnknownComponent,
                                   "no component named '" + request.component + "' (components: " + names + ")");
       }
-      const LifecycleCommand command = request.command == Command::activate     ? LifecycleCommand::activate
-                                       : request.command == Command::deactivate ? LifecycleCommand::deactivate
-                                                                                : LifecycleCommand::reset;
       const ReturnCode code = interceptor->command(command);
       const std::string state = interceptor->status().state;
       if (code != ReturnCode::ok) {

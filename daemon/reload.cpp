@@ -66,15 +66,20 @@ std::string problems(const Diagnostics& diagnostics) {
 
 }  // namespace
 
-bool GraphDiff::empty() const noexcept {
+bool GraphDiff::graph_unchanged() const noexcept {
   return components_added.empty() && components_removed.empty() && components_changed.empty() &&
          connections_added.empty() && connections_removed.empty() && connections_changed.empty();
+}
+
+bool GraphDiff::empty() const noexcept {
+  return graph_unchanged() && composites_added.empty() && composites_removed.empty() && composites_changed.empty();
 }
 
 nlohmann::json GraphDiff::to_json() const {
   return {{"components", {{"added", components_added}, {"removed", components_removed}, {"changed", components_changed}}},
           {"connections",
-           {{"added", connections_added}, {"removed", connections_removed}, {"changed", connections_changed}}}};
+           {{"added", connections_added}, {"removed", connections_removed}, {"changed", connections_changed}}},
+          {"composites", {{"added", composites_added}, {"removed", composites_removed}, {"changed", composites_changed}}}};
 }
 
 Result<GraphDiff> diff(const ApplicationProfile& running, const ApplicationProfile& next) {
@@ -134,6 +139,19 @@ Result<GraphDiff> diff(const ApplicationProfile& running, const ApplicationProfi
     out.change.connections_out.emplace_back(c.source.component + "." + c.source.port,
                                             c.target.component + "." + c.target.port);
   }
+  // Connections are keyed by the member ports their ends resolve to, so a composite that now
+  // promotes another port already shows above as a connection removed and one added.
+  for (const CompositeSpec& c : next.composites) {
+    const CompositeSpec* old = running.find_composite(c.name);
+    if (old == nullptr) {
+      out.composites_added.push_back(c.name);
+    } else if (old->definition != c.definition) {
+      out.composites_changed.push_back(c.name);
+    }
+  }
+  for (const CompositeSpec& c : running.composites) {
+    if (next.find_composite(c.name) == nullptr) out.composites_removed.push_back(c.name);
+  }
   return out;
 }
 
@@ -184,7 +202,7 @@ Result<nlohmann::json> reload(Engine& engine, TypeRegistry& types, ApplicationPr
     if (run_time.count(ends) != 0) change.connections_out.push_back(std::move(ends));
   }
   nlohmann::json summary = difference.value().to_json();
-  if (!difference.value().empty()) {
+  if (!difference.value().graph_unchanged()) {
     if (auto applied = engine.apply(difference.value().change, warnings); !applied) return applied.error();
   }
   summary["unchanged"] = difference.value().empty();

@@ -28,9 +28,13 @@ namespace polyport::daemon {
 struct GraphDiff {
   std::vector<std::string> components_added, components_removed, components_changed;
   std::vector<std::string> connections_added, connections_removed, connections_changed;
+  // Composites by name. A composite is no node of the engine: what its change does to the
+  // graph shows as the connections that name it, which resolve to other member ports.
+  std::vector<std::string> composites_added, composites_removed, composites_changed;
   Engine::Change change;
 
   bool empty() const noexcept;
+  bool graph_unchanged() const noexcept;  // nothing for the engine to do
   nlohmann::json to_json() const;
 };
 

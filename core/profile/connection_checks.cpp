@@ -13,6 +13,8 @@ Loader::ResolvedEnd Loader::resolve(const Reporter& report, const ApplicationPro
   // Reported at the end element, like every other problem of a connection end: the end is
   // the pair (component_name, port_name), and its path reads as `.../source`.
   if (resolved.component == nullptr) {
+    // A composite's name that promotes no such port: reported by resolve_promoted.
+    if (app.find_composite(spec.component) != nullptr) return resolved;
     report.error(end, "unknown component " + in_quotes(spec.component));
     return resolved;
   }
@@ -34,7 +36,8 @@ bool Loader::check_end(const Reporter& report, pugi::xml_node connection, pugi::
                const ConnectionSpec& spec, const ConnectionEnd& end_spec,
                const ResolvedEnd& resolved, bool is_source) {
   if (!resolved.checkable) return false;
-  const std::string name = end_spec.component + "." + end_spec.port;
+  std::string name = end_spec.component + "." + end_spec.port;
+  if (!end_spec.promoted.empty()) name = end_spec.promoted + " (" + name + ")";
   const PortSpec& port = *resolved.port;
   const std::string kind(to_string(spec.kind));
   if (port.kind != spec.kind) {

@@ -132,6 +132,7 @@ const std::vector<ChildRule> kApplicationRules = {
     {"types", {"types"}},
     {"subcomponents", {"subcomponents"}},
     {"port_connections", {"port_connections"}},
+    {"composites", {"composites"}},
 };
 const std::vector<ChildRule> kTypesRules = {{"file", {"file"}, true}};
 const std::vector<ChildRule> kSubcomponentsRules = {{"subcomponent", {"subcomponent"}, true}};
@@ -139,6 +140,12 @@ const std::vector<ChildRule> kSubcomponentRules = {
     {"name", {"name"}},
     {"reference", {"reference"}},
     {"", {"id", "type", "node_id"}},
+};
+const std::vector<ChildRule> kCompositesRules = {{"composite", {"composite"}, true}};
+const std::vector<ChildRule> kCompositeRules = {
+    {"name", {"name"}},
+    {"description", {"description"}},
+    {"promote", {"promote"}, true, {"component_name", "port_name", "as"}},
 };
 const std::vector<ChildRule> kConnectionsRules = {
     {"port_connection", {"port_connection"}, true, {"port_type", "policy", "depth"}},
@@ -321,6 +328,22 @@ class Loader {
 
   void read_end(const Reporter& report, pugi::xml_node connection, pugi::xml_node end,
                 std::string_view tag, ConnectionEnd& out);
+
+  // -- composites (composite_reader.cpp) ---------------------------------------------------
+
+  // Reads <composites> once the components' profiles are known: names, promoted ports.
+  void read_composites(const Reporter& report, pugi::xml_node element, ApplicationProfile& app);
+
+  // Checks that a <promote> names a port of a component (not of a composite); returns whether
+  // the port may be promoted.
+  bool check_promoted(const Reporter& report, const ApplicationProfile& app, pugi::xml_node promote,
+                      const std::string& composite, const std::set<std::string, std::less<>>& composite_names,
+                      const PromotedPort& port);
+
+  // Rewrites every connection end (and watchdog port) naming "Composite.name" to the member
+  // port it promotes; `nodes` are the connections' elements, in the same order.
+  void resolve_promoted(const Reporter& report, const ApplicationProfile& app,
+                        std::vector<ConnectionSpec>& connections, const std::vector<pugi::xml_node>& nodes);
 
   // -- mappings --------------------------------------------------------------------------
 

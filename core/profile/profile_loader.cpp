@@ -58,6 +58,8 @@ std::optional<ApplicationProfile> Loader::run(const fs::path& requested) {
       for (const fs::path& type_file : subcomponent.profile.type_files) subcomponent.definition += file_text(type_file);
     }
   }
+  if (const auto composites = children.one("composites")) read_composites(report, composites, app);
+  resolve_promoted(report, app, app.connections, connection_nodes);
   check_connections(report, app, connection_nodes);
 
   if (diagnostics_.error_count() != errors_before) return std::nullopt;
@@ -243,6 +245,29 @@ const PropertySpec* ComponentProfile::find_property(std::string_view property_na
     if (property.name == property_name) return &property;
   }
   return nullptr;
+}
+
+const PromotedPort* CompositeSpec::find_port(std::string_view port_name) const noexcept {
+  for (const auto& port : ports) {
+    if (port.name == port_name) return &port;
+  }
+  return nullptr;
+}
+
+const CompositeSpec* ApplicationProfile::find_composite(std::string_view composite_name) const noexcept {
+  for (const auto& composite : composites) {
+    if (composite.name == composite_name) return &composite;
+  }
+  return nullptr;
+}
+
+std::string ApplicationProfile::member_path(std::string_view path) const {
+  const auto dot = path.find('.');
+  if (dot == std::string_view::npos) return std::string(path);
+  const CompositeSpec* composite = find_composite(path.substr(0, dot));
+  const PromotedPort* port = composite != nullptr ? composite->find_port(path.substr(dot + 1)) : nullptr;
+  if (port == nullptr) return std::string(path);
+  return port->member.component + "." + port->member.port;
 }
 
 const Subcomponent* ApplicationProfile::find_component(

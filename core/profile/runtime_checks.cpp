@@ -34,7 +34,8 @@ std::optional<ConnectionSpec> check_connection(const ApplicationProfile& applica
                                                const std::string& where) {
   // The kind a profile would give in port_type: the source port's, when it is known.
   PortKind kind = PortKind::data;
-  const std::string_view source(request.source);
+  const std::string source_path = application.member_path(request.source);
+  const std::string_view source(source_path);
   if (const auto dot = source.find('.'); dot != std::string_view::npos) {
     if (const Subcomponent* component = application.find_component(source.substr(0, dot))) {
       if (const PortSpec* port = component->profile.find_port(source.substr(dot + 1))) kind = port->kind;
@@ -72,6 +73,7 @@ std::optional<ConnectionSpec> Loader::check_one(const ApplicationProfile& applic
   one.file = application.file;
   one.name = application.name;
   one.components = application.components;
+  one.composites = application.composites;
   for (const Subcomponent& component : one.components) {
     auto& loaded = components_[component.reference];
     if (loaded) continue;
@@ -82,6 +84,7 @@ std::optional<ConnectionSpec> Loader::check_one(const ApplicationProfile& applic
   const Reporter report(xml);
   std::vector<pugi::xml_node> nodes;
   read_connections(report, xml.root(), one, nodes);
+  resolve_promoted(report, one, one.connections, nodes);
   check_connections(report, one, nodes);
   if (diagnostics_.error_count() != errors_before || one.connections.size() != 1) return std::nullopt;
   return std::move(one.connections.front());

@@ -102,6 +102,32 @@ struct ConnectionEnd {
   std::string component;
   std::string port;
   SourceLocation where;
+  // "Composite.name" as the profile wrote it, when this end names a port a composite promotes;
+  // `component` and `port` are then the member's own (the loader resolves them). Empty else.
+  std::string promoted;
+};
+
+// A composite (<composite> in <composites>): a facade over components of the profile that
+// promotes chosen ports of theirs (data, event and service) under its own name. It is no
+// component of its own: a connection naming "Composite.name" is the member port's connection,
+// and lifecycle commands sent to it go to its members.
+struct PromotedPort {
+  std::string name;  // the composite's name for it (<promote as>, else the port's own)
+  ConnectionEnd member;
+  SourceLocation where;
+};
+
+struct CompositeSpec {
+  std::string name;
+  std::string description;
+  std::vector<PromotedPort> ports;
+  // The components that own a promoted port, each once, in the order of their first <promote>.
+  std::vector<std::string> members;
+  SourceLocation where;
+  // Its <composite> element as text, for a reload to tell a changed one.
+  std::string definition;
+
+  const PromotedPort* find_port(std::string_view port_name) const noexcept;
 };
 
 // A data connection's fail-safe (<watchdog> inside <port_connection>): while the source
@@ -164,8 +190,13 @@ struct ApplicationProfile {
   std::vector<std::filesystem::path> type_files;
   std::vector<Subcomponent> components;
   std::vector<ConnectionSpec> connections;
+  std::vector<CompositeSpec> composites;
 
   const Subcomponent* find_component(std::string_view instance_name) const noexcept;
+  const CompositeSpec* find_composite(std::string_view composite_name) const noexcept;
+  // "Component.port" for a "Composite.name" that a composite promotes; `path` as it is
+  // otherwise (a component's own port, or a name nothing promotes).
+  std::string member_path(std::string_view path) const;
 };
 
 struct LoadOptions {
