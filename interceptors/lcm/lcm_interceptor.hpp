@@ -44,8 +44,11 @@ class LcmInterceptor final : public Interceptor {
   // One `output` channel: what the application publishes, into the port.
   class ChannelReader final : public MessageHandler {
    public:
-    ChannelReader(const LcmAdaptor::Channel& channel, ChannelEchoes& echoes) : channel_(channel), echoes(echoes) {}
+    ChannelReader(const LcmAdaptor::Channel& channel, ChannelEchoes& channel_echoes)
+        : echoes(channel_echoes), channel_(channel) {}
     void on_message(const void* data, std::uint32_t size) noexcept override;
+
+    ChannelEchoes& echoes;  // the channel's on the instance (loop prevention)
 
     std::atomic<bool> active{false};
     std::atomic<std::uint64_t> received{0};
@@ -58,17 +61,16 @@ class LcmInterceptor final : public Interceptor {
 
    private:
     const LcmAdaptor::Channel& channel_;
-
-   public:
-    ChannelEchoes& echoes;
   };
 
   // One `input` channel: the port's sink publishes each sample.
   class ChannelWriter final : public SampleSink {
    public:
     ChannelWriter(const LcmAdaptor::Channel& channel, Instance& instance)
-        : channel_(channel), instance_(instance), echoes(instance.echoes(channel.channel)) {}
+        : echoes(instance.echoes(channel.channel)), channel_(channel), instance_(instance) {}
     Status on_sample(const std::byte* data, const SampleMeta& meta) noexcept override;
+
+    ChannelEchoes& echoes;  // the channel's on the instance (loop prevention)
 
     std::atomic<bool> active{false};
     std::atomic<std::uint64_t> published{0};
@@ -79,9 +81,6 @@ class LcmInterceptor final : public Interceptor {
    private:
     const LcmAdaptor::Channel& channel_;
     Instance& instance_;
-
-   public:
-    ChannelEchoes& echoes;
   };
 
   LcmAdaptor& adaptor_;  // owned by the same Proxy; outlives start/stop
