@@ -313,9 +313,10 @@ void print_final_stats(const nlohmann::json& stats) {
     if (c.contains("lcm")) {
       for (const auto& ch : c["lcm"].value("channels", nlohmann::json::array())) {
         if (ch.value("polyport", "") == "subscribes") {
-          spdlog::info("    LCM channel {}: {} received, {} of another type, {} too short, {} too large",
+          spdlog::info("    LCM channel {}: {} received, {} of another type, {} too short, {} too large, "
+                       "{} of polyport's own dropped",
                        ch.value("channel", ""), ch.value("received", 0), ch.value("wrong_fingerprint", 0),
-                       ch.value("too_short", 0), ch.value("too_large", 0));
+                       ch.value("too_short", 0), ch.value("too_large", 0), ch.value("loop_dropped", 0));
         } else {
           spdlog::info("    LCM channel {}: {} published, {} failed", ch.value("channel", ""), ch.value("published", 0),
                        ch.value("failed", 0));
@@ -336,10 +337,11 @@ void print_final_stats(const nlohmann::json& stats) {
     if (c.contains("socketcan")) {
       const auto& can = c["socketcan"];
       const auto bus = can.value("bus", nlohmann::json::object());
-      spdlog::info("    CAN interface {}: {}, {} losses, {} returns; bus {}, {} error frames ({} bus-off)",
+      spdlog::info("    CAN interface {}: {}, {} losses, {} returns; bus {}, {} error frames ({} bus-off); "
+                   "{} frames of polyport's own dropped",
                    can.value("interface", ""), can.value("link", ""), can.value("losses", 0),
                    can.value("recoveries", 0), bus.value("state", ""), bus.value("error_frames", 0),
-                   bus.value("kinds", nlohmann::json::object()).value("bus_off", 0));
+                   bus.value("kinds", nlohmann::json::object()).value("bus_off", 0), can.value("loop_dropped", 0));
       for (const auto& p : can.value("ports", nlohmann::json::array())) {
         if (p.value("polyport", "") == "receives") {
           spdlog::info("    CAN id {} ({}): {} received, {} of another length", p.value("can_id", ""),
@@ -354,8 +356,8 @@ void print_final_stats(const nlohmann::json& stats) {
     if (!c.contains("dds")) continue;
     for (const auto& t : c["dds"].value("topics", nlohmann::json::array())) {
       if (t.value("polyport", "") == "reads") {
-        spdlog::info("    DDS topic {}: {} received, {} refused", t.value("topic", ""), t.value("received", 0),
-                     t.value("refused", 0));
+        spdlog::info("    DDS topic {}: {} received, {} refused, {} of polyport's own dropped", t.value("topic", ""),
+                     t.value("received", 0), t.value("refused", 0), t.value("loop_dropped", 0));
       } else if (t.contains("matched_readers")) {
         spdlog::info("    DDS topic {}: {} readers matched", t.value("topic", ""), t.value("matched_readers", 0));
       }

@@ -27,11 +27,20 @@ class CycloneReader final : public dds::Reader {
   std::uint64_t received() const noexcept override { return reader_->received(); }
   // A raw sertype takes any bytes: nothing is refused before the callback.
   std::uint64_t refused() const noexcept override { return 0; }
+  // Cyclone never delivers polyport's own samples to it (ignorelocal, below): none to drop.
+  std::uint64_t loop_dropped() const noexcept override { return 0; }
 
  private:
   std::unique_ptr<RawReader> reader_;
 };
 
+// Loop prevention: every endpoint of the domain ignores the participant's own (Cyclone's
+// ignorelocal QoS), so a sample polyport wrote is never delivered to polyport's readers of
+// the topic, neither read back nor forwarded again when a profile bridges the topic both
+// ways. Cyclone decides it when endpoints match, so nothing is spent per sample; and no
+// write of polyport's runs a reader's listener of polyport's on the writing thread, which
+// is what would deadlock a bridge both ways across two domains or vendors (a reader's
+// listener writing while another writer's delivery waits for that listener to finish).
 class CycloneDomain final : public dds::Domain {
  public:
   explicit CycloneDomain(std::unique_ptr<Participant> participant) : participant_(std::move(participant)) {}
@@ -39,14 +48,14 @@ class CycloneDomain final : public dds::Domain {
   std::uint32_t id() const noexcept override { return participant_->domain_id(); }
 
   Result<std::unique_ptr<dds::Writer>> create_writer(const dds::EndpointSpec& spec) override {
-    auto writer = RawWriter::create(*participant_, spec.topic, spec.type_name, spec.qos);
+    auto writer = RawWriter::create(*participant_, spec.topic, spec.type_name, spec.qos, true);
     if (!writer) return writer.error();
     return std::unique_ptr<dds::Writer>(std::make_unique<CycloneWriter>(std::move(writer).value()));
   }
 
   Result<std::unique_ptr<dds::Reader>> create_reader(const dds::EndpointSpec& spec,
                                                      dds::ReceiveCallback callback) override {
-    auto reader = RawReader::create(*participant_, spec.topic, spec.type_name, std::move(callback), spec.qos);
+    auto reader = RawReader::create(*participant_, spec.topic, spec.type_name, std::move(callback), spec.qos, true);
     if (!reader) return reader.error();
     return std::unique_ptr<dds::Reader>(std::make_unique<CycloneReader>(std::move(reader).value()));
   }

@@ -421,7 +421,8 @@ Participant::~Participant() {
 
 Result<std::unique_ptr<RawWriter>> RawWriter::create(Participant& participant,
                                                      const std::string& topic_name,
-                                                     const std::string& type_name, const Qos& qos) {
+                                                     const std::string& type_name, const Qos& qos,
+                                                     bool ignore_own) {
   if (auto ok = check(qos); !ok) return ok.error();
   auto publisher = partition_parent(participant.handle(), qos, true);
   if (!publisher) return publisher.error();
@@ -431,6 +432,7 @@ Result<std::unique_ptr<RawWriter>> RawWriter::create(Participant& participant,
     return topic.error();
   }
   const QosPtr dds_qos = to_dds(qos);
+  if (ignore_own) dds_qset_ignorelocal(dds_qos.get(), DDS_IGNORELOCAL_PARTICIPANT);
   const dds_entity_t parent = publisher.value() > 0 ? publisher.value() : participant.handle();
   const dds_entity_t writer = dds_create_writer(parent, topic.value(), dds_qos.get(), nullptr);
   if (writer < 0) {
@@ -505,7 +507,7 @@ RawReader::RawReader(std::unique_ptr<State> state) : state_(std::move(state)) {}
 Result<std::unique_ptr<RawReader>> RawReader::create(Participant& participant,
                                                      const std::string& topic_name,
                                                      const std::string& type_name,
-                                                     Callback callback, const Qos& qos) {
+                                                     Callback callback, const Qos& qos, bool ignore_own) {
   if (!callback) return make_error("a raw reader on '" + topic_name + "' needs a callback");
   if (auto ok = check(qos); !ok) return ok.error();
   auto subscriber = partition_parent(participant.handle(), qos, false);
@@ -525,6 +527,7 @@ Result<std::unique_ptr<RawReader>> RawReader::create(Participant& participant,
   dds_listener_t* listener = dds_create_listener(reader->state_.get());
   dds_lset_data_available(listener, on_data_available);
   const QosPtr dds_qos = to_dds(qos);
+  if (ignore_own) dds_qset_ignorelocal(dds_qos.get(), DDS_IGNORELOCAL_PARTICIPANT);
   const dds_entity_t parent = reader->subscriber_ > 0 ? reader->subscriber_ : participant.handle();
   const dds_entity_t handle = dds_create_reader(parent, topic.value(), dds_qos.get(), listener);
   dds_delete_listener(listener);

@@ -63,13 +63,17 @@ class Participant {
   std::int32_t participant_;
 };
 
+// `ignore_own` (writers and readers): the endpoint never matches an endpoint of the same
+// participant (Cyclone's ignorelocal QoS), so a reader never gets what a writer of its own
+// participant wrote. Loop prevention: see cyclonedds_domain.cpp.
+
 // A writer of serialized samples on topic `topic_name` of type `type_name`.
 class RawWriter {
  public:
   static Result<std::unique_ptr<RawWriter>> create(Participant& participant,
                                                    const std::string& topic_name,
                                                    const std::string& type_name,
-                                                   const Qos& qos = {});
+                                                   const Qos& qos = {}, bool ignore_own = false);
   ~RawWriter();
   RawWriter(const RawWriter&) = delete;
   RawWriter& operator=(const RawWriter&) = delete;
@@ -106,7 +110,8 @@ class RawReader {
   static Result<std::unique_ptr<RawReader>> create(Participant& participant,
                                                    const std::string& topic_name,
                                                    const std::string& type_name,
-                                                   Callback callback, const Qos& qos = {});
+                                                   Callback callback, const Qos& qos = {},
+                                                   bool ignore_own = false);
   // Deletes the reader first; Cyclone waits for a callback in progress to return.
   ~RawReader();
   RawReader(const RawReader&) = delete;

@@ -62,9 +62,13 @@ class Reader {
   virtual std::uint64_t received() const noexcept = 0;        // samples handed to the callback
   // Samples the SDK delivered but the reader could not hand over (too large, no header).
   virtual std::uint64_t refused() const noexcept = 0;
+  // Samples written by one of polyport's own writers on the topic in this domain, dropped
+  // (loop prevention, own_writers.hpp): a sample polyport wrote is never forwarded again.
+  virtual std::uint64_t loop_dropped() const noexcept = 0;
 };
 
-// One participant on one domain id, with the vendor's configuration.
+// One participant on one domain id, with the vendor's configuration. Its readers drop the
+// samples of its own writers on the same topic (loop prevention, own_writers.hpp).
 class Domain {
  public:
   virtual ~Domain() = default;

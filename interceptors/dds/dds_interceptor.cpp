@@ -146,6 +146,7 @@ void DdsInterceptor::stop() noexcept {
     if (!readers_[i]) continue;
     closed_[i].received += readers_[i]->received();
     closed_[i].refused += readers_[i]->refused();
+    closed_[i].loop_dropped += readers_[i]->loop_dropped();
     readers_[i].reset();
   }
   for (std::size_t i = 0; i < writers_.size(); ++i) {
@@ -179,6 +180,8 @@ void DdsInterceptor::describe(nlohmann::json& out) const {
       if (open) t["matched_writers"] = readers_[i]->matched_writers();
       t["received"] = closed_[i].received + (open ? readers_[i]->received() : 0);
       t["refused"] = closed_[i].refused + (open ? readers_[i]->refused() : 0);
+      // Written by polyport itself (another of its ports on this topic) and not forwarded.
+      t["loop_dropped"] = closed_[i].loop_dropped + (open ? readers_[i]->loop_dropped() : 0);
     }
     if (i < writers_.size() && writers_[i]) t["matched_readers"] = writers_[i]->matched_readers();
     topics.push_back(std::move(t));

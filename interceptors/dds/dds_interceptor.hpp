@@ -61,6 +61,7 @@ class DdsInterceptor final : public Interceptor {
   struct ReaderTotals {
     std::uint64_t received = 0;
     std::uint64_t refused = 0;
+    std::uint64_t loop_dropped = 0;
   };
   std::vector<ReaderTotals> closed_;
   std::vector<std::unique_ptr<RpcTransport>> service_topics_;  // per service port, in order

@@ -394,6 +394,13 @@ std::array<std::uint8_t, 16> RawWriter::guid() const noexcept {
   return out;
 }
 
+std::uint64_t RawWriter::own_key() const noexcept {
+  const std::array<std::uint8_t, 16> id = guid();
+  std::uint32_t entity = 0;
+  std::memcpy(&entity, id.data() + 12, sizeof entity);
+  return entity;
+}
+
 // ---- RawReader ----------------------------------------------------------------------------
 
 class RawReader::Listener final : public dds::DataReaderListener {
@@ -411,7 +418,8 @@ Result<std::unique_ptr<RawReader>> RawReader::create(Participant& participant,
                                                      const std::string& topic_name,
                                                      const std::string& type_name, const DdsQos& qos,
                                                      Callback callback, std::uint32_t max_size,
-                                                     bool keyed) {
+                                                     bool keyed,
+                                                     std::shared_ptr<const polyport::dds::OwnWriters> own) {
   if (!callback) return make_error("fastdds: reader on " + topic_name + " without a callback");
   Result<dds::Topic*> topic = participant.raw_topic(topic_name, type_name, max_size, keyed);
   if (!topic) return topic.error();
@@ -419,7 +427,10 @@ Result<std::unique_ptr<RawReader>> RawReader::create(Participant& participant,
   reader->participant_ = &participant;
   reader->callback_ = std::move(callback);
   reader->capacity_ = max_size;
+  reader->own_ = std::move(own);
   try {
+    const eprosima::fastrtps::rtps::GuidPrefix_t& prefix = participant.native()->guid().guidPrefix;
+    std::memcpy(reader->own_prefix_.data(), prefix.value, reader->own_prefix_.size());
     reader->type_ = dynamic_cast<const RawType*>(participant.native()->find_type(type_name).get());
     if (reader->type_ != nullptr) reader->refused_before_ = reader->type_->refused();
     reader->storage_ = std::make_unique<std::byte[]>(max_size);
@@ -461,6 +472,15 @@ RawReader::~RawReader() {
   }
 }
 
+// The publication handle of a sample is its writer's GUID (prefix, then entity id).
+bool RawReader::is_own(const dds::SampleInfo& info) const noexcept {
+  const eprosima::fastrtps::rtps::octet* handle = info.publication_handle.value;
+  if (std::memcmp(handle, own_prefix_.data(), own_prefix_.size()) != 0) return false;
+  std::uint32_t entity = 0;
+  std::memcpy(&entity, handle + 12, sizeof entity);
+  return own_->contains(entity);
+}
+
 void RawReader::on_data_available(dds::DataReader* reader) noexcept {
   in_flight_.fetch_add(1);
   if (!stopping_.load()) {
@@ -470,6 +490,12 @@ void RawReader::on_data_available(dds::DataReader* reader) noexcept {
       try {
         while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
           if (!info.valid_data) continue;  // a dispose or unregister: nothing to forward
+          if (own_ && is_own(info)) {
+            // Written by one of polyport's own writers on this topic: forwarding it again
+            // would loop (own_writers.hpp).
+            loop_dropped_.fetch_add(1, std::memory_order_relaxed);
+            continue;
+          }
           // The source timestamp is the writer's wall clock; polyport's path time is
           // CLOCK_MONOTONIC, so carry the sample's age over: mono_now - (wall_now - source).
           // Accurate to the two clocks' skew between peers (zero on one host).

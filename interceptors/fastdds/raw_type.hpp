@@ -27,6 +27,7 @@
 #include "dds_settings.hpp"
 #include "polyport/base/result.hpp"
 #include "polyport/base/status.hpp"
+#include "own_writers.hpp"
 
 namespace eprosima::fastdds::dds {
 class DomainParticipant;
@@ -34,6 +35,7 @@ class Publisher;
 class Subscriber;
 class DataWriter;
 class DataReader;
+struct SampleInfo;
 class Topic;
 }  // namespace eprosima::fastdds::dds
 
@@ -174,6 +176,8 @@ class RawWriter {
   std::int32_t matched_readers() const noexcept;
   // The writer's RTPS GUID: the 12-byte prefix, then the 4-byte entity id, as on the wire.
   std::array<std::uint8_t, 16> guid() const noexcept;
+  // Its key among polyport's writers (own_writers.hpp): the entity id.
+  std::uint64_t own_key() const noexcept;
 
  private:
   RawWriter() = default;
@@ -194,7 +198,8 @@ class RawReader {
                                                    const std::string& type_name, const DdsQos& qos,
                                                    Callback callback,
                                                    std::uint32_t max_size = kDefaultMaxPayload,
-                                                   bool keyed = false);
+                                                   bool keyed = false,
+                                                   std::shared_ptr<const polyport::dds::OwnWriters> own = nullptr);
   ~RawReader();
   RawReader(const RawReader&) = delete;
   RawReader& operator=(const RawReader&) = delete;
@@ -204,11 +209,14 @@ class RawReader {
   // was made. Counted by the participant's RawType, so shared by every raw reader of that
   // type on the participant that exists at the same time.
   std::uint64_t refused() const noexcept { return type_ != nullptr ? type_->refused() - refused_before_ : 0; }
+  // Samples of a writer in `own` (create) of this participant, dropped before the callback.
+  std::uint64_t loop_dropped() const noexcept { return loop_dropped_.load(std::memory_order_relaxed); }
 
  private:
   class Listener;
   RawReader() = default;
   void on_data_available(eprosima::fastdds::dds::DataReader* reader) noexcept;
+  bool is_own(const eprosima::fastdds::dds::SampleInfo& info) const noexcept;
 
   Participant* participant_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
@@ -222,6 +230,9 @@ class RawReader {
   DrainGate drains_;  // see raw_type.cpp: more than one Fast DDS thread may deliver
   std::atomic<bool> stopping_{false};
   std::atomic<int> in_flight_{0};
+  std::shared_ptr<const polyport::dds::OwnWriters> own_;  // null: every sample goes to the callback
+  std::array<std::uint8_t, 12> own_prefix_{};   // the participant's GUID prefix
+  std::atomic<std::uint64_t> loop_dropped_{0};
 };
 
 }  // namespace polyport::fastdds

@@ -153,6 +153,12 @@ void Instance::run() noexcept {
   }
 }
 
+ChannelEchoes& Instance::echoes(const std::string& channel) {
+  auto& echoes = echoes_[channel];
+  if (!echoes) echoes = std::make_unique<ChannelEchoes>();
+  return *echoes;
+}
+
 Result<lcm_subscription_t*> Instance::subscribe(const std::string& channel, MessageHandler& handler) {
   lcm_subscription_t* subscription = lcm_subscribe(lcm_, channel_pattern(channel).c_str(), dispatch, &handler);
   if (subscription == nullptr) return make_error("LCM cannot subscribe to channel '" + channel + "'");

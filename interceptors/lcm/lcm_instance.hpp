@@ -8,11 +8,13 @@
 #pragma once
 
 #include <atomic>
+#include <map>
 #include <memory>
 #include <string>
 #include <thread>
 
 #include "polyport/base/result.hpp"
+#include "polyport/runtime/echo_table.hpp"
 #include "polyport/runtime/thread_scheduling.hpp"
 #include <nlohmann/json_fwd.hpp>
 #include <optional>
@@ -33,6 +35,17 @@ class MessageHandler {
  public:
   virtual ~MessageHandler() = default;
   virtual void on_message(const void* data, std::uint32_t size) noexcept = 0;
+};
+
+// Loop prevention on one channel of one instance (polyport/runtime/echo_table.hpp): LCM has
+// no notion of a sender, and a udpm subscriber receives the datagrams its own lcm_t sent. So
+// when polyport both publishes and subscribes a channel on an instance, each publish records
+// its message's fingerprint, with the number of polyport's subscriptions that will see it, and
+// those subscriptions drop the echo. Shared by the interceptors of the instance.
+struct ChannelEchoes {
+  EchoTable table;
+  std::atomic<std::uint32_t> subscribers{0};  // polyport's data subscriptions of the channel
+  std::atomic<std::uint32_t> publishers{0};   // polyport's data publishers of the channel
 };
 
 class Instance {
@@ -58,6 +71,10 @@ class Instance {
 
   const std::string& url() const noexcept { return url_; }
 
+  // The loop-prevention state of `channel` on this instance; lives as long as the instance.
+  // Control thread.
+  ChannelEchoes& echoes(const std::string& channel);
+
   // The scheduling a component asks for the receive thread (<lcm><receive_thread>); the
   // strongest of the requests of the components sharing the instance is applied when the
   // thread starts, or at once when it runs already (one warning when refused). Control thread.
@@ -71,6 +88,7 @@ class Instance {
   void run() noexcept;
 
   std::string url_;
+  std::map<std::string, std::unique_ptr<ChannelEchoes>> echoes_;
   lcm_t* lcm_ = nullptr;
   int fileno_ = -1;
   int wake_fd_ = -1;

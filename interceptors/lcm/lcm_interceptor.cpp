@@ -110,6 +110,13 @@ void LcmInterceptor::ChannelReader::on_message(const void* data, std::uint32_t s
       too_large.fetch_add(1, std::memory_order_relaxed);
       return;
   }
+  // Loop prevention (lcm_instance.hpp, ChannelEchoes): only on a channel polyport also
+  // publishes on this instance, and there only a hash of the bytes and a few atomic loads.
+  if (echoes.publishers.load(std::memory_order_relaxed) != 0 &&
+      echoes.table.consume(message_fingerprint(data, size), mono_now())) {
+    loop_dropped.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
   // A message cut short after its fingerprint fails in the codec when a connection decodes
   // it, and is counted there; a passthrough hands it on as the application wrote it.
   (void)channel_.out->write(data, size);
@@ -117,7 +124,15 @@ void LcmInterceptor::ChannelReader::on_message(const void* data, std::uint32_t s
 
 Status LcmInterceptor::ChannelWriter::on_sample(const std::byte* data, const SampleMeta& meta) noexcept {
   if (!active.load(std::memory_order_acquire)) return Status::not_active;
+  // Recorded before the send: the receive thread may see the echo before publish returns.
+  const std::uint32_t subscribers = echoes.subscribers.load(std::memory_order_acquire);
+  std::uint64_t fingerprint = 0;
+  if (subscribers != 0) {
+    fingerprint = message_fingerprint(data, meta.size);
+    if (!echoes.table.expect(fingerprint, subscribers, mono_now())) echo_unrecorded.fetch_add(1, std::memory_order_relaxed);
+  }
   if (instance_.publish(channel_.channel.c_str(), data, meta.size) != 0) {
+    if (subscribers != 0) echoes.table.forget(fingerprint);
     failed.fetch_add(1, std::memory_order_relaxed);
     return Status::error;
   }
@@ -129,7 +144,7 @@ LcmInterceptor::LcmInterceptor(LcmAdaptor& adaptor, std::shared_ptr<Instance> in
     : adaptor_(adaptor), instance_(std::move(instance)) {
   for (const LcmAdaptor::Channel& channel : adaptor_.channels()) {
     if (channel.out != nullptr) {
-      readers_.push_back(std::make_unique<ChannelReader>(channel));
+      readers_.push_back(std::make_unique<ChannelReader>(channel, instance_->echoes(channel.channel)));
       writers_.push_back(nullptr);
     } else {
       readers_.push_back(nullptr);
@@ -165,8 +180,10 @@ Result<void> LcmInterceptor::start() {
         return make_error(adaptor_.name() + "." + channels[i].out->name() + ": " + subscription.error().message);
       }
       reader->subscription = subscription.value();
+      reader->echoes.subscribers.fetch_add(1, std::memory_order_acq_rel);
       reader->active.store(true, std::memory_order_release);
     } else {
+      writers_[i]->echoes.publishers.fetch_add(1, std::memory_order_acq_rel);
       writers_[i]->active.store(true, std::memory_order_release);
     }
   }
@@ -195,10 +212,13 @@ void LcmInterceptor::stop() noexcept {
     if (reader->subscription != nullptr) {
       instance_->unsubscribe(reader->subscription);
       reader->subscription = nullptr;
+      reader->echoes.subscribers.fetch_sub(1, std::memory_order_acq_rel);
     }
   }
   for (auto& writer : writers_) {
-    if (writer) writer->active.store(false, std::memory_order_release);
+    if (writer && writer->active.exchange(false, std::memory_order_acq_rel)) {
+      writer->echoes.publishers.fetch_sub(1, std::memory_order_acq_rel);
+    }
   }
   active_ = false;
 }
@@ -222,10 +242,13 @@ void LcmInterceptor::describe(nlohmann::json& out) const {
       c["wrong_fingerprint"] = reader->wrong_fingerprint.load(std::memory_order_relaxed);
       c["too_short"] = reader->too_short.load(std::memory_order_relaxed);
       c["too_large"] = reader->too_large.load(std::memory_order_relaxed);
+      // Echoes of what polyport itself published on the channel, not forwarded again.
+      c["loop_dropped"] = reader->loop_dropped.load(std::memory_order_relaxed);
     }
     if (const ChannelWriter* writer = writers_[i].get()) {
       c["published"] = writer->published.load(std::memory_order_relaxed);
       c["failed"] = writer->failed.load(std::memory_order_relaxed);
+      if (const auto n = writer->echo_unrecorded.load(std::memory_order_relaxed); n != 0) c["echo_unrecorded"] = n;
     }
     channels.push_back(std::move(c));
   }

@@ -44,11 +44,16 @@ class LcmInterceptor final : public Interceptor {
   // One `output` channel: what the application publishes, into the port.
   class ChannelReader final : public MessageHandler {
    public:
-    explicit ChannelReader(const LcmAdaptor::Channel& channel) : channel_(channel) {}
+    ChannelReader(const LcmAdaptor::Channel& channel, ChannelEchoes& channel_echoes)
+        : echoes(channel_echoes), channel_(channel) {}
     void on_message(const void* data, std::uint32_t size) noexcept override;
+
+    ChannelEchoes& echoes;  // the channel's on the instance (loop prevention)
 
     std::atomic<bool> active{false};
     std::atomic<std::uint64_t> received{0};
+    // Echoes of polyport's own publishes on the channel, dropped (loop prevention).
+    std::atomic<std::uint64_t> loop_dropped{0};
     std::atomic<std::uint64_t> wrong_fingerprint{0};
     std::atomic<std::uint64_t> too_short{0};
     std::atomic<std::uint64_t> too_large{0};
@@ -61,12 +66,17 @@ class LcmInterceptor final : public Interceptor {
   // One `input` channel: the port's sink publishes each sample.
   class ChannelWriter final : public SampleSink {
    public:
-    ChannelWriter(const LcmAdaptor::Channel& channel, Instance& instance) : channel_(channel), instance_(instance) {}
+    ChannelWriter(const LcmAdaptor::Channel& channel, Instance& instance)
+        : echoes(instance.echoes(channel.channel)), channel_(channel), instance_(instance) {}
     Status on_sample(const std::byte* data, const SampleMeta& meta) noexcept override;
+
+    ChannelEchoes& echoes;  // the channel's on the instance (loop prevention)
 
     std::atomic<bool> active{false};
     std::atomic<std::uint64_t> published{0};
     std::atomic<std::uint64_t> failed{0};
+    // Publishes whose echo could not be recorded (every nearby slot held a live entry).
+    std::atomic<std::uint64_t> echo_unrecorded{0};
 
    private:
     const LcmAdaptor::Channel& channel_;

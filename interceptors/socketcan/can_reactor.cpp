@@ -168,4 +168,10 @@ void CanReactor::run() noexcept {
   rounds_.notify_all();
 }
 
+CanEchoes& CanReactor::echoes(const std::string& interface) {
+  auto& echoes = echoes_[interface];
+  if (!echoes) echoes = std::make_unique<CanEchoes>();
+  return *echoes;
+}
+
 }  // namespace polyport::socketcan

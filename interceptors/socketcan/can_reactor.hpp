@@ -15,13 +15,17 @@
 
 #include <atomic>
 #include <cstdint>
+#include <cstring>
 #include <chrono>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 
 #include "polyport/base/result.hpp"
+#include "polyport/runtime/echo_table.hpp"
 #include "polyport/runtime/thread_scheduling.hpp"
 #include <nlohmann/json_fwd.hpp>
 #include <optional>
@@ -42,6 +46,37 @@ class Supervised {
   virtual ~Supervised() = default;
   virtual void on_tick() noexcept = 0;
 };
+
+// Loop prevention on one CAN interface (polyport/runtime/echo_table.hpp). The kernel loops
+// every frame a socket sends back to the host's other raw sockets on the interface (not to
+// the sender's own: CAN_RAW_RECV_OWN_MSGS is off), marked MSG_DONTROUTE as locally sent, but
+// says nothing of which socket sent it. So a raw frame polyport sends on an id that a raw
+// socket of polyport's reads on the interface is recorded first (a fingerprint of id, length
+// and data, with how many of those sockets will see it), and those sockets drop it. Shared by
+// the interceptors of the interface; made and counted on the control thread.
+struct CanEchoes {
+  EchoTable table;
+  std::atomic<std::uint32_t> senders{0};  // polyport's sending ports on the interface, started
+  // Polyport's started raw sockets that receive each id; entries stay while the reactor does.
+  std::atomic<std::uint32_t>& readers_of(std::uint32_t can_id) {
+    auto& readers = readers_[can_id];
+    if (!readers) readers = std::make_unique<std::atomic<std::uint32_t>>(0);
+    return *readers;
+  }
+
+ private:
+  std::map<std::uint32_t, std::unique_ptr<std::atomic<std::uint32_t>>> readers_;
+};
+
+// The fingerprint of a frame, for CanEchoes: id, length and data bytes.
+inline std::uint64_t frame_fingerprint(std::uint32_t can_id, std::uint8_t len, const std::uint8_t* data) noexcept {
+  std::uint8_t bytes[sizeof can_id + 1 + 64];
+  std::memcpy(bytes, &can_id, sizeof can_id);
+  bytes[sizeof can_id] = len;
+  const std::size_t n = len <= 64 ? len : 64;
+  std::memcpy(bytes + sizeof can_id + 1, data, n);
+  return message_fingerprint(bytes, sizeof can_id + 1 + n);
+}
 
 class CanReactor {
  public:
@@ -68,6 +103,9 @@ class CanReactor {
   // {"asked": "SCHED_FIFO 70", "realtime": true, "pinned": false}; null when nothing was asked.
   nlohmann::json scheduling() const;
 
+  // The loop-prevention state of `interface`; lives as long as the reactor. Control thread.
+  CanEchoes& echoes(const std::string& interface);
+
   // Calls `supervised.on_tick()` every kTickInterval from now on; starts the thread. Control thread.
   Result<void> watch(Supervised& supervised);
   // Stops the ticks for it, waiting for one in progress. Control thread.
@@ -93,6 +131,7 @@ class CanReactor {
   std::thread thread_;
   std::optional<ThreadScheduling> scheduling_;  // under start_mutex_
   SchedulingOutcome applied_;
+  std::map<std::string, std::unique_ptr<CanEchoes>> echoes_;  // control thread
 };
 
 }  // namespace polyport::socketcan

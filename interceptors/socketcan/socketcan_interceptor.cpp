@@ -95,7 +95,17 @@ Status SocketCanInterceptor::FrameWriter::on_sample(const std::byte* data, const
     ok = setup(frame, size, first);
     if (first && ok) scheduled.store(true, std::memory_order_release);
   } else {
+    // Loop prevention (can_reactor.hpp, CanEchoes): recorded before the write, since the
+    // reactor may take the looped-back frame before write() returns.
+    std::uint32_t readers = readers_.load(std::memory_order_acquire);
+    if (reads_own_id_ && readers != 0) --readers;  // the sending socket does not get its own frames
+    std::uint64_t fingerprint = 0;
+    if (readers != 0) {
+      fingerprint = frame_fingerprint(frame.can_id, frame.len, frame.data);
+      (void)echoes_.table.expect(fingerprint, readers, mono_now());
+    }
     ok = ::write(fd_.load(std::memory_order_acquire), &frame, size) == static_cast<ssize_t>(size);
+    if (!ok && readers != 0) echoes_.table.forget(fingerprint);
   }
   if (!ok) {
     // EAGAIN / ENOBUFS: the interface's queue is full; the frame is dropped, never waited for.
@@ -152,15 +162,22 @@ void SocketCanInterceptor::FrameWriter::unschedule() noexcept {
 }
 
 SocketCanInterceptor::SocketCanInterceptor(SocketCanAdaptor& adaptor, std::shared_ptr<CanReactor> reactor)
-    : adaptor_(adaptor), reactor_(std::move(reactor)) {
+    : adaptor_(adaptor), reactor_(std::move(reactor)), echoes_(reactor_->echoes(adaptor_.settings().interface)) {
   const auto& messages = adaptor_.messages();
   counters_ = std::make_unique<Counters[]>(messages.size());
+  auto reads = [&messages](std::uint32_t can_id) {
+    for (const auto& m : messages) {
+      if (m.out != nullptr && m.can_id == can_id) return true;
+    }
+    return false;
+  };
   for (std::uint32_t i = 0; i < messages.size(); ++i) {
     const SocketCanAdaptor::Message& message = messages[i];
     if (message.out != nullptr) {
       writers_.push_back(nullptr);
     } else {
-      writers_.push_back(std::make_unique<FrameWriter>(message, fd_, bcm_fd_, counters_[i]));
+      writers_.push_back(
+          std::make_unique<FrameWriter>(message, fd_, bcm_fd_, counters_[i], echoes_, reads(message.can_id)));
       message.in->set_sink(writers_.back().get());  // before wiring: the connection is push mode
       periodic_ = periodic_ || message.cycle_ms != 0;
     }
@@ -336,6 +353,7 @@ Result<void> SocketCanInterceptor::start() {
     return make_error(adaptor_.name() + ": " + added.error().message);
   }
   registered_ = true;
+  count_in(true);
   for (auto& writer : writers_) {
     if (writer) writer->active.store(true, std::memory_order_release);
   }
@@ -356,11 +374,25 @@ void SocketCanInterceptor::stop() noexcept {
     if (writer) writer->unschedule();
   }
   receiving_.store(false, std::memory_order_release);
+  count_in(false);
   if (registered_) {
     reactor_->remove(fd_.load(std::memory_order_acquire));
     registered_ = false;
   }
   active_ = false;
+}
+
+void SocketCanInterceptor::count_in(bool in) noexcept {
+  if (counted_in_ == in) return;
+  counted_in_ = in;
+  for (const SocketCanAdaptor::Message& message : adaptor_.messages()) {
+    std::atomic<std::uint32_t>& counter = message.out != nullptr ? echoes_.readers_of(message.can_id) : echoes_.senders;
+    if (in) {
+      counter.fetch_add(1, std::memory_order_acq_rel);
+    } else {
+      counter.fetch_sub(1, std::memory_order_acq_rel);
+    }
+  }
 }
 
 void SocketCanInterceptor::drain() noexcept {
@@ -453,6 +485,13 @@ void SocketCanInterceptor::on_frame(const canfd_frame& frame, mmsghdr& received)
   }
   if ((frame.can_id & CAN_ERR_FLAG) != 0) {
     on_error_frame(frame, t_source);
+    return;
+  }
+  // Loop prevention (can_reactor.hpp, CanEchoes): only a frame sent on this host, only while
+  // polyport sends on the interface.
+  if ((header.msg_flags & MSG_DONTROUTE) != 0 && echoes_.senders.load(std::memory_order_relaxed) != 0 &&
+      echoes_.table.consume(frame_fingerprint(frame.can_id, frame.len, frame.data), mono_now())) {
+    loop_dropped_.fetch_add(1, std::memory_order_relaxed);
     return;
   }
   const SocketCanAdaptor::Received got = adaptor_.receive(frame.can_id, frame.data, frame.len, t_source);
@@ -600,6 +639,8 @@ void SocketCanInterceptor::describe(nlohmann::json& out) const {
                       {"bus_events", events != nullptr ? nlohmann::json(events->name()) : nlohmann::json()},
                       {"events", events_.load(std::memory_order_relaxed)},
                       {"unknown_id", unknown_id_.load(std::memory_order_relaxed)},
+                      // Frames polyport itself sent on the interface, read back and not forwarded.
+                      {"loop_dropped", loop_dropped_.load(std::memory_order_relaxed)},
                       {"read_errors", read_errors_.load(std::memory_order_relaxed)},
                       {"kernel_dropped", dropped_before_.load(std::memory_order_relaxed) +
                                              dropped_.load(std::memory_order_relaxed)},

@@ -76,8 +76,9 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
   class FrameWriter final : public SampleSink {
    public:
     FrameWriter(const SocketCanAdaptor::Message& message, const std::atomic<int>& fd, const std::atomic<int>& bcm_fd,
-                Counters& counters)
-        : message_(message), fd_(fd), bcm_fd_(bcm_fd), counters_(counters) {}
+                Counters& counters, CanEchoes& echoes, bool reads_own_id)
+        : message_(message), fd_(fd), bcm_fd_(bcm_fd), counters_(counters), echoes_(echoes),
+          readers_(echoes.readers_of(message.can_id)), reads_own_id_(reads_own_id) {}
     Status on_sample(const std::byte* data, const SampleMeta& meta) noexcept override;
     // Deletes the BCM task (control thread, after `active` went false).
     void unschedule() noexcept;
@@ -105,6 +106,9 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
     const std::atomic<int>& fd_;
     const std::atomic<int>& bcm_fd_;
     Counters& counters_;
+    CanEchoes& echoes_;
+    const std::atomic<std::uint32_t>& readers_;  // polyport's raw sockets reading the id
+    bool reads_own_id_;  // this interceptor's own socket reads the id (it never gets its own raw frames)
   };
 
   // What the interface is, as the last tick saw it.
@@ -123,10 +127,15 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
   Result<void> attach(int ifindex);
   bool interface_flags(int& ifindex, bool& up) const noexcept;
   void drain() noexcept;
+  // Adds this interceptor's readers (per id) and senders to echoes_, or takes them out.
+  void count_in(bool in) noexcept;
   std::string where() const;
 
   SocketCanAdaptor& adaptor_;  // owned by the same Proxy; outlives start/stop
   std::shared_ptr<CanReactor> reactor_;
+  CanEchoes& echoes_;  // the interface's, in the reactor
+  bool counted_in_ = false;  // this interceptor's readers and senders are in echoes_ (control thread)
+  std::atomic<std::uint64_t> loop_dropped_{0};  // echoes of polyport's own frames, dropped
   std::unique_ptr<Counters[]> counters_;                // per message
   std::vector<std::unique_ptr<FrameWriter>> writers_;  // per message; null for output ports
   std::atomic<int> fd_{-1};

@@ -304,6 +304,41 @@ TEST_F(CycloneRawTopicTest, RawWriterToRawReader) {
   for (const auto& sample : inbox.samples) EXPECT_EQ(sample, wire);
 }
 
+// Loop prevention (cyclonedds_domain.cpp): with ignore_own, a reader does not match the
+// writers of its own participant, so what they write never reaches it (RawWriterToRawReader
+// shows that it would), while another participant's writer on the topic still does.
+TEST_F(CycloneRawTopicTest, IgnoreOwnKeepsTheParticipantsOwnWritesFromItsReaders) {
+  const std::string topic = unique_topic("ignore_own");
+  Inbox inbox;
+  auto reader = cyc::RawReader::create(
+      *participant_, topic, kTypeName,
+      [&inbox](const std::byte* cdr, std::uint32_t size, polyport::MonoTime) {
+        std::lock_guard lock(inbox.mutex);
+        inbox.samples.emplace_back(cdr, cdr + size);
+      },
+      {}, true);
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  auto own = cyc::RawWriter::create(*participant_, topic, kTypeName, {}, true);
+  ASSERT_TRUE(own.ok()) << own.error().message;
+  auto other_participant = cyc::Participant::create(kDomain, POLYPORT_CYCLONE_LOOPBACK_CONFIG);
+  ASSERT_TRUE(other_participant.ok()) << other_participant.error().message;
+  auto other = cyc::RawWriter::create(*other_participant.value(), topic, kTypeName);
+  ASSERT_TRUE(other.ok()) << other.error().message;
+  ASSERT_TRUE(wait_until([&] { return reader.value()->matched_writers() == 1 && other.value()->matched_readers() == 1; }))
+      << "matched writers " << reader.value()->matched_writers();
+  EXPECT_EQ(own.value()->matched_readers(), 0);
+
+  const std::vector<std::byte> wire = pose_.encode(example());
+  for (int i = 0; i < 3; ++i)
+    ASSERT_EQ(own.value()->write(wire.data(), static_cast<std::uint32_t>(wire.size())), polyport::Status::ok);
+  ASSERT_EQ(other.value()->write(wire.data(), static_cast<std::uint32_t>(wire.size())), polyport::Status::ok);
+  ASSERT_TRUE(wait_until([&] { return inbox.count() >= 1; }));
+  // The other participant's one sample came after the own writer's three: had they come,
+  // they would be here first (one process, delivered in write order on each writer).
+  EXPECT_EQ(inbox.count(), 1u);
+  EXPECT_EQ(reader.value()->received(), 1u);
+}
+
 TEST_F(CycloneRawTopicTest, RefusesBadArguments) {
   auto writer = cyc::RawWriter::create(*participant_, unique_topic("bad"), kTypeName);
   ASSERT_TRUE(writer.ok()) << writer.error().message;

@@ -76,6 +76,7 @@ class MemoryDomain final : public dds::Domain {
     std::int32_t matched_writers() const noexcept override { return -1; }
     std::uint64_t received() const noexcept override { return subscription_->received.load(); }
     std::uint64_t refused() const noexcept override { return 0; }
+    std::uint64_t loop_dropped() const noexcept override { return 0; }
 
    private:
     MemoryDomain& domain_;

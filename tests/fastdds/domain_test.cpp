@@ -363,6 +363,38 @@ TEST_F(FastddsDomain, WriterToGeneratedReaderAndBack) {
   expect_pose(back, decode(inbox.samples[0]));
 }
 
+// ---- loop prevention -----------------------------------------------------------------------
+
+// A reader and a writer of the domain on one topic (what a profile bridging the topic both
+// ways makes): Fast DDS hands the reader what the writer wrote, and the reader drops it,
+// counted; a generated application's samples on the same topic go through.
+TEST_F(FastddsDomain, ReaderDropsWhatTheDomainsOwnWriterWroteAndCountsIt) {
+  auto dom = domain(166);
+  ASSERT_NE(dom, nullptr);
+  GeneratedPeer peer(166);
+  ASSERT_TRUE(peer.ok());
+  Inbox inbox;
+  auto reader = dom->create_reader(spec("polyport_test/loop"), inbox.callback());
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  auto writer = dom->create_writer(spec("polyport_test/loop"));
+  ASSERT_TRUE(writer.ok()) << writer.error().message;
+  fdds::DataWriter* app_writer = peer.writer("polyport_test/loop");
+  ASSERT_NE(app_writer, nullptr);
+  ASSERT_TRUE(eventually([&] { return reader.value()->matched_writers() == 2 && GeneratedPeer::matched(app_writer) == 1; }))
+      << "matched writers: " << reader.value()->matched_writers();
+  for (int i = 0; i < 3; ++i) {
+    const Bytes own = encode(pose(100 + i, "own"));
+    ASSERT_EQ(writer.value()->write(own.data(), static_cast<std::uint32_t>(own.size())), Status::ok);
+  }
+  demo::Pose foreign = pose(7, "app");
+  ASSERT_TRUE(app_writer->write(&foreign));
+  ASSERT_TRUE(eventually([&] { return reader.value()->loop_dropped() == 3 && reader.value()->received() == 1; }))
+      << "loop_dropped " << reader.value()->loop_dropped() << ", received " << reader.value()->received();
+  std::lock_guard lock(inbox.mutex);
+  ASSERT_EQ(inbox.samples.size(), 1u);
+  expect_pose(foreign, decode(inbox.samples[0]));
+}
+
 // ---- QoS ----------------------------------------------------------------------------------
 
 TEST_F(FastddsDomain, PartitionsDecideWhatMatches) {

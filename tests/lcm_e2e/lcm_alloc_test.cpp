@@ -165,6 +165,62 @@ TEST_F(LcmAlloc, ForwardingAMessageAllocatesNothingInPolyport) {
   engine.stop();
 }
 
+// Loop prevention on the path: a channel polyport publishes what it reads from the same
+// channel (tests/data/lcm_alloc/loop_app.xml). Each message the test publishes is forwarded
+// once and its echo, back in polyport's subscription, is fingerprinted, found and dropped:
+// two handler calls per message, no allocation by polyport in either.
+TEST_F(LcmAlloc, DroppingTheEchoOfItsOwnPublishAllocatesNothingInPolyport) {
+  ASSERT_TRUE(build("loop_app.xml")) << problems();
+  std::vector<std::string> warnings;
+  g_wrap_subscriptions = true;
+  ASSERT_TRUE(engine.start(warnings)) << problems();
+  g_wrap_subscriptions = false;
+
+  lcm_t* lcm = lcm_create(nullptr);
+  ASSERT_NE(lcm, nullptr);
+  Received got;
+  peer_pose_t_subscribe(lcm, "ALLOC_LOOP", on_same, &got);
+  std::vector<double> samples{0.5, -1.0, 3.75};
+  peer_pose_t sent{};
+  sent.frame = const_cast<char*>("base_link");
+  sent.nsamples = 3;
+  sent.samples = samples.data();
+  const int fd = lcm_get_fileno(lcm);
+  ASSERT_GE(fd, 0);
+  // The test's subscription sees each message twice: as it published it, and polyport's copy.
+  auto send_and_take = [&](int count) {
+    for (int i = 0; i < count; ++i) {
+      const int same = got.same;
+      const std::uint64_t calls = g_handler_calls.load();
+      sent.id = i;
+      ASSERT_EQ(peer_pose_t_publish(lcm, "ALLOC_LOOP", &sent), 0);
+      for (int spins = 0; (got.same < same + 2 || g_handler_calls.load() < calls + 2) && spins < 200; ++spins) {
+        pollfd p{fd, POLLIN, 0};
+        if (poll(&p, 1, 10) > 0) lcm_handle(lcm);
+      }
+      ASSERT_EQ(got.same, same + 2) << "message " << i << " was not forwarded once";
+    }
+  };
+  send_and_take(50);
+
+  constexpr int kMessages = 500;
+  const std::uint64_t calls_before = g_handler_calls.load();
+  const std::uint64_t polyport_before = g_polyport_allocations.load();
+  send_and_take(kMessages);
+  const std::uint64_t polyport = g_polyport_allocations.load() - polyport_before;
+  EXPECT_EQ(got.bad, 0);
+  EXPECT_EQ(g_handler_calls.load() - calls_before, static_cast<std::uint64_t>(2 * kMessages));
+  EXPECT_EQ(polyport, 0u) << "polyport allocated on the forwarding or the echo-dropping path";
+  lcm_destroy(lcm);
+
+  nlohmann::json stats;
+  engine.stats(stats);
+  const nlohmann::json& channel = stats["components"][0]["lcm"]["channels"][0];
+  EXPECT_EQ(channel["loop_dropped"], 50 + kMessages) << stats.dump(2);
+  EXPECT_EQ(stats["connections"][0]["delivered"], 50 + kMessages) << stats.dump(2);
+  engine.stop();
+}
+
 // An LCM server of calc on its own lcm_t and thread (its handler is not polyport's: it
 // subscribed while subscriptions were not wrapped): replies sum = a + b.
 class CalcServer {

@@ -17,6 +17,7 @@
 #include <fstream>
 #include <iterator>
 #include <optional>
+#include <set>
 #include <sstream>
 
 #include "../support/multicast_namespace.hpp"
@@ -26,6 +27,9 @@ namespace polyport::test {
 namespace {
 
 constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
+// A second LCM network (another port of the same group, so the same route) for bridges
+// between two networks.
+constexpr const char* kUrlB = "udpm://239.255.76.67:7668?ttl=0";
 
 class LcmEndToEnd : public DaemonTest {
  protected:
@@ -40,6 +44,7 @@ class LcmEndToEnd : public DaemonTest {
   fs::path app(const std::string& name, const std::string& dds_model = "cyclonedds") {
     return fill_templates(POLYPORT_TEST_DATA "/lcm_e2e",
                           {{"@URL@", kUrl},
+                           {"@URL_B@", kUrlB},
                            {"@DDS_MODEL@", dds_model},
                            {"@SOURCE_CHANNEL@", "POSE_IN"},
                            {"@SINK_CHANNEL@", "POSE_OUT"},
@@ -492,6 +497,88 @@ TEST_F(LcmEndToEnd, TheReceiveThreadRunsWithTheProfilesScheduling) {
   EXPECT_EQ(thread.value("asked", ""), "SCHED_FIFO 20 on CPU 0") << stats.dump(2);
   EXPECT_EQ(thread.value("realtime", !allowed), allowed);
   EXPECT_TRUE(thread.value("pinned", false));
+}
+
+// Loop prevention: channel LOOP bridged both ways between two LCM networks
+// (tests/data/lcm_e2e/loop_app.xml), lcm-gen publishers and subscribers on both. A udpm
+// subscriber receives its own lcm_t's datagrams, so every message polyport publishes on a side
+// comes back to polyport's subscription of that side; without loop prevention it would be
+// forwarded back to the other side, and so on for as long as the daemon runs (each subscriber
+// would see every message again and again). With it, every message a peer published reaches the
+// other side once, and each side's subscription drops exactly the echoes of what polyport
+// published there (`loop_dropped` = the other connection's `delivered`).
+TEST_F(LcmEndToEnd, ChannelBridgedBothWaysForwardsEachMessageOnce) {
+  const fs::path socket = dir() / "admin.sock";
+  auto sub_a = lcm_peer("sub_a", {"sub", kUrl, "LOOP"});
+  auto sub_b = lcm_peer("sub_b", {"sub", kUrlB, "LOOP"});
+  auto daemon = this->daemon(app("loop_app.xml"), {"--admin-socket", socket.string()});
+  auto pub_a = lcm_peer("pub_a", {"pub", kUrl, "LOOP", "5", "0"});
+  auto pub_b = lcm_peer("pub_b", {"pub", kUrlB, "LOOP", "5", "1000"});
+  auto published = [](const Child& pub) {
+    std::set<long long> ids;
+    for (const Json& j : pub.lines()) {
+      if (j.value("event", "") == "published") ids.insert(j["id"].get<long long>());
+    }
+    return ids;
+  };
+  ASSERT_TRUE(eventually([&] { return published(*pub_a).size() >= 30 && published(*pub_b).size() >= 30; }, 30s))
+      << daemon->errors();
+  for (auto* pub : {&pub_a, &pub_b}) {
+    (*pub)->signal(SIGTERM);
+    ASSERT_EQ((*pub)->wait(10s), 0) << (*pub)->errors();
+  }
+  const std::set<long long> from_a = published(*pub_a);
+  const std::set<long long> from_b = published(*pub_b);
+  // Each subscriber gets its own side's publisher directly and the other side's through
+  // polyport: all of them, once.
+  auto ids = [](const Child& sub) {
+    std::multiset<long long> out;
+    for (const Json& pose : poses(sub)) out.insert(pose["id"].get<long long>());
+    return out;
+  };
+  ASSERT_TRUE(eventually([&] {
+    return ids(*sub_a).size() >= from_a.size() + from_b.size() && ids(*sub_b).size() >= from_a.size() + from_b.size();
+  }, 30s)) << "a: " << ids(*sub_a).size() << ", b: " << ids(*sub_b).size() << " of " << from_a.size() + from_b.size();
+  for (const auto* sub : {&sub_a, &sub_b}) {
+    const auto got = ids(**sub);
+    for (const Json& pose : poses(**sub)) expect_pose(pose);
+    std::set<long long> expected(from_a);
+    expected.insert(from_b.begin(), from_b.end());
+    EXPECT_EQ(std::set<long long>(got.begin(), got.end()), expected);
+    ASSERT_EQ(got.size(), expected.size()) << "a subscriber saw a message more than once";
+  }
+  // Every echo of polyport's own publishes has reached polyport too (the same datagrams).
+  auto live = [&] {
+    Child ctl(dir(), "ctl", {POLYPORTCTL, "--socket", socket.string(), "--json", "stats"});
+    EXPECT_EQ(ctl.wait(20s), 0) << ctl.errors();
+    std::ifstream out(dir() / "ctl.out");
+    const Json s = Json::parse(out, nullptr, false);
+    return s.is_discarded() ? Json::object() : s;
+  };
+  ASSERT_TRUE(eventually([&] {
+    const Json s = live();
+    if (!s.contains("connections") || !s.contains("components")) return false;
+    const Json* there = connection(s, "a.from_lcm -> b.to_lcm");
+    const Json* back = connection(s, "b.from_lcm -> a.to_lcm");
+    const Json* in_a = lcm_channel(s, "a", "from_lcm");
+    const Json* in_b = lcm_channel(s, "b", "from_lcm");
+    return there && back && in_a && in_b && (*in_b)["loop_dropped"] == (*there)["delivered"] &&
+           (*in_a)["loop_dropped"] == (*back)["delivered"];
+  }, 20s)) << live().dump(2);
+  const Json stats = stop(*daemon);
+  const Json* there = connection(stats, "a.from_lcm -> b.to_lcm");
+  const Json* back = connection(stats, "b.from_lcm -> a.to_lcm");
+  const Json* in_a = lcm_channel(stats, "a", "from_lcm");
+  const Json* in_b = lcm_channel(stats, "b", "from_lcm");
+  ASSERT_TRUE(there && back && in_a && in_b);
+  EXPECT_EQ((*there)["conversion"], "passthrough");
+  EXPECT_EQ((*there)["delivered"].get<std::size_t>(), from_a.size()) << there->dump(2);
+  EXPECT_EQ((*back)["delivered"].get<std::size_t>(), from_b.size()) << back->dump(2);
+  EXPECT_EQ((*in_b)["loop_dropped"], (*there)["delivered"]) << in_b->dump(2);
+  EXPECT_EQ((*in_a)["loop_dropped"], (*back)["delivered"]) << in_a->dump(2);
+  // What a subscription received: its peer's messages and the echoes of polyport's.
+  EXPECT_EQ((*in_a)["received"].get<std::size_t>(), from_a.size() + from_b.size()) << in_a->dump(2);
+  EXPECT_EQ((*in_b)["received"].get<std::size_t>(), from_a.size() + from_b.size()) << in_b->dump(2);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 // other thread is the model's CAN thread (receive path, sinks, broadcast manager updates,
 // error frames to events, and its supervision ticks). The windows:
 //  - CAN -> CAN, each sample a frame (cyclic_app.xml, EngineData <cycle_ms>0</cycle_ms>);
+//  - the same both ways between vcan0 and vcan1 (loop_app.xml), each frame's echo dropped;
 //  - CAN -> CAN through the broadcast manager (cyclic_app.xml, BrakeStatus every 50 ms):
 //    each sample replaces the task's data;
 //  - CAN -> decoded signals on a probe, and error frames -> polyport::CanBusEvent samples
@@ -26,6 +27,7 @@
 #include <cstring>
 #include <string>
 
+#include <nlohmann/json.hpp>
 #include <spdlog/sinks/ringbuffer_sink.h>
 #include <spdlog/spdlog.h>
 
@@ -120,6 +122,45 @@ TEST_F(SocketCanAllocTest, ForwardingFrameByFrameAllocatesNothing) {
   const std::uint64_t allocations = g_all_allocations.load() - before;
   EXPECT_EQ(through, kFrames);
   EXPECT_EQ(allocations, 0u) << "allocations while " << through << " frames were forwarded";
+}
+
+// Loop prevention on the path (loop_app.xml: EngineData both ways between vcan0 and vcan1):
+// each frame from vcan0 is fingerprinted and recorded before polyport sends it on vcan1, and
+// its echo, back at polyport's reading socket of vcan1, is fingerprinted, found and dropped.
+TEST_F(SocketCanAllocTest, DroppingTheEchoOfItsOwnFrameAllocatesNothing) {
+  ASSERT_TRUE(build("loop_app.xml")) << problems();
+  start();
+  RawPeer writer("vcan0");
+  RawPeer reader("vcan1");
+  ASSERT_EQ(writer.error(), "");
+  ASSERT_EQ(reader.error(), "");
+  std::uint8_t data[8] = {0xA0, 0x0F, 0x78, 0xC8, 0x30, 0x7D, 0x02, 0x00};
+  const auto deadline = Clock::now() + kWindowDeadline;
+  for (int i = 0; i < 10; ++i) {  // warm-up
+    data[7] = static_cast<std::uint8_t>(i);
+    ASSERT_TRUE(writer.send(0x100, data));
+    ASSERT_TRUE(reader.receive(0x100, data, deadline)) << "warm-up frame " << i << " did not come through";
+  }
+  int through = 0;
+  const std::uint64_t before = g_all_allocations.load();
+  for (int i = 0; i < kFrames; ++i) {
+    data[7] = static_cast<std::uint8_t>(i);
+    if (!writer.send(0x100, data) || !reader.receive(0x100, data, deadline)) break;
+    ++through;
+  }
+  const std::uint64_t allocations = g_all_allocations.load() - before;
+  EXPECT_EQ(through, kFrames);
+  EXPECT_EQ(allocations, 0u) << "allocations while " << through << " frames were forwarded and their echoes dropped";
+  auto loop_dropped = [&](const char* component) {
+    nlohmann::json stats;
+    engine.stats(stats);
+    for (const auto& c : stats["components"]) {
+      if (c["name"] == component) return c["socketcan"]["loop_dropped"].get<int>();
+    }
+    return -1;
+  };
+  EXPECT_TRUE(test::eventually([&] { return loop_dropped("r1") == 10 + kFrames; })) << loop_dropped("r1");
+  EXPECT_EQ(loop_dropped("r0"), 0);
 }
 
 TEST_F(SocketCanAllocTest, UpdatingABroadcastManagerTaskAllocatesNothing) {
