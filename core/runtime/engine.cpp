@@ -408,7 +408,7 @@ Result<void> Engine::apply(const Change& change, std::vector<std::string>& warni
   std::vector<ExecutionContext*> vacated;
   for (auto it = nodes_.begin(); it != nodes_.end();) {
     if (leaves(*it->proxy.adaptor)) {
-      if (ExecutionContext* context = it->proxy.interceptor->execution_context()) vacated.push_back(context);
+      if (ExecutionContext* ec = it->proxy.interceptor->execution_context()) vacated.push_back(ec);
       retired_.push_back(std::move(*it));
       it = nodes_.erase(it);
     } else {

@@ -37,8 +37,8 @@ ConnectionSpec connection(const std::string& from, const std::string& to, const 
                           PortKind kind = PortKind::data) {
   ConnectionSpec c;
   c.kind = kind;
-  c.source = {from.substr(0, from.find('.')), from.substr(from.find('.') + 1), {}};
-  c.target = {to.substr(0, to.find('.')), to.substr(to.find('.') + 1), {}};
+  c.source = {from.substr(0, from.find('.')), from.substr(from.find('.') + 1), {}, {}};
+  c.target = {to.substr(0, to.find('.')), to.substr(to.find('.') + 1), {}, {}};
   c.definition = definition;
   return c;
 }
@@ -78,7 +78,7 @@ TEST(ReloadDiff, AConnectionChangesWithItsWatchdogsComponents) {
   running.components = {component("a", "A"), component("b", "B"), component("watch", "W")};
   ConnectionSpec watched = connection("a.out", "b.in", "1");
   watched.watchdog = WatchdogSpec{};
-  watched.watchdog->event = ConnectionEnd{"watch", "events", {}};
+  watched.watchdog->event = ConnectionEnd{"watch", "events", {}, {}};
   running.connections = {watched};
   ApplicationProfile next = running;
   next.components[2].definition = "W changed";
