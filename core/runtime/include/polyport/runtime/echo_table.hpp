@@ -64,6 +64,12 @@ class EchoTable {
       while (left != 0 && !slot.remaining.compare_exchange_weak(left, left - 1, std::memory_order_acq_rel)) {
       }
       if (left == 0) continue;
+      if (slot.fingerprint.load(std::memory_order_acquire) != fingerprint) {
+        // expect reused the slot (the entry had just expired) between the checks above and the
+        // share taken: the share was the new entry's; give it back.
+        slot.remaining.fetch_add(1, std::memory_order_acq_rel);
+        continue;
+      }
       if (left == 1) {  // the last share: the slot is free again
         std::uint64_t expected = fingerprint;
         slot.fingerprint.compare_exchange_strong(expected, kFree, std::memory_order_release);
