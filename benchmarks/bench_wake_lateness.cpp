@@ -70,16 +70,19 @@ struct Case {
 int fifo_priority = 0;  // 0: SCHED_OTHER
 bool fifo_refused = false;
 
+// Under --fifo, puts the calling thread under SCHED_FIFO; false (and fifo_refused) when refused.
+bool take_fifo() {
+  if (fifo_priority <= 0) return true;
+  sched_param param{};
+  param.sched_priority = fifo_priority;
+  if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) == 0) return true;
+  fifo_refused = true;
+  return false;
+}
+
 // `periods` wakes of a clock_nanosleep loop at `period`, after one unmeasured cycle.
 void plain_loop(Case& c, std::uint64_t periods) {
-  if (fifo_priority > 0) {
-    sched_param param{};
-    param.sched_priority = fifo_priority;
-    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
-      fifo_refused = true;
-      return;
-    }
-  }
+  if (!take_fifo()) return;
   prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
   c.timer_slack_ns = prctl(PR_GET_TIMERSLACK, 0UL, 0UL, 0UL, 0UL);
   MonoTime deadline = mono_now();
@@ -94,14 +97,7 @@ void plain_loop(Case& c, std::uint64_t periods) {
 
 // `periods` periods of spinning on the clock; per period, the longest gap between two reads.
 void gap_loop(Case& c, std::uint64_t periods) {
-  if (fifo_priority > 0) {
-    sched_param param{};
-    param.sched_priority = fifo_priority;
-    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
-      fifo_refused = true;
-      return;
-    }
-  }
+  if (!take_fifo()) return;
   MonoTime previous = mono_now();
   MonoTime end_of_period = previous + c.period;
   for (std::uint64_t i = 0; i < periods; ++i) {

@@ -25,7 +25,6 @@ import os
 import platform
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -34,6 +33,8 @@ import urllib.request
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.realpath(os.path.join(HERE, "..", ".."))
+sys.path.insert(0, os.path.join(ROOT, "benchmarks", "common"))
+from bench_results import free_port, write_results  # noqa: E402
 KINDS = ("inproc", "cyclonedds", "fastdds", "lcm")
 RELIABLE = ("inproc", "cyclonedds", "fastdds")
 
@@ -110,12 +111,6 @@ def application(folder, side, plan, period_ms):
     with open(path, "w") as f:
         f.write("\n".join(lines))
     return path, traced, kinds
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def rss_kib(pid):
@@ -307,12 +302,7 @@ def main():
              f"RSS growth after the first interval (KiB): {result['rss_growth_after_first_interval_kib']}",
              f"exit codes: {codes}"]
     text = "\n".join(rows) + "\n"
-    os.makedirs(args.out_dir, exist_ok=True)
-    path = os.path.join(args.out_dir, f"soak-{stamp}")
-    with open(path + ".json", "w") as f:
-        json.dump(result, f, indent=1)
-    with open(path + ".md", "w") as f:
-        f.write(text)
+    path = write_results(args.out_dir, "soak", stamp, result, text)
     print(text)
     print(f"written {path}.json and {path}.md")
     return 0 if result["reliable_loss"] == 0 and all(c == 0 for c in codes.values()) else 1

@@ -26,7 +26,6 @@ import re
 import shlex
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -35,6 +34,8 @@ import urllib.request
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.realpath(os.path.join(HERE, "..", ".."))
+sys.path.insert(0, os.path.join(ROOT, "benchmarks", "common"))
+from bench_results import free_port, write_results  # noqa: E402
 PROFILE = "wheelchair_inproc.xml"
 CASES = ["idle/default", "idle/realtime", "stress/default", "stress/realtime"]
 MARKS = ("p50", "p99", "p999", "max")
@@ -61,12 +62,6 @@ def application(work, realtime, priority):
         with open(os.path.join(profiles, "components", name), "w") as f:
             f.write(text)
     return os.path.join(profiles, PROFILE)
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def histograms(port):
@@ -219,15 +214,11 @@ def main():
                   f"overruns {sum(e['overruns'] for e in r['contexts'])}", flush=True)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    os.makedirs(args.out_dir, exist_ok=True)
-    path = os.path.join(args.out_dir, f"stress-{stamp}")
-    with open(path + ".json", "w") as f:
-        json.dump(result, f, indent=1)
     table = markdown(result)
-    with open(path + ".md", "w") as f:
-        f.write(f"Jitter and load benchmark {stamp}, {result['host']}, {result['cpus']} CPUs, kernel "
-                f"{result['kernel']}, revision {result['revision']}, {args.duration_s:g} s per case, stressor "
-                f"`{args.stressor}`, real-time = SCHED_FIFO {args.priority}\n\n" + table)
+    path = write_results(args.out_dir, "stress", stamp, result,
+                         f"Jitter and load benchmark {stamp}, {result['host']}, {result['cpus']} CPUs, kernel "
+                         f"{result['kernel']}, revision {result['revision']}, {args.duration_s:g} s per case, stressor "
+                         f"`{args.stressor}`, real-time = SCHED_FIFO {args.priority}\n\n" + table)
     if not args.no_plot:
         plot(result, path + ".png")
     print(table)

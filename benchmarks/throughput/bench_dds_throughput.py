@@ -32,6 +32,8 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.realpath(os.path.join(HERE, "..", ".."))
+sys.path.insert(0, os.path.join(ROOT, "benchmarks", "common"))
+from bench_results import write_results  # noqa: E402
 TICKS = os.sysconf("SC_CLK_TCK")
 DOMAIN_IN, DOMAIN_OUT = 60, 61
 
@@ -166,12 +168,7 @@ def main():
                     f"{r['one_core_samples_per_s'] or 0:.0f} | {r['in_to_out_ns']['p50']} / {r['in_to_out_ns']['p99']} | "
                     f"{r['subscriber_received']} / {r['subscriber_lost']} |")
     text = "\n".join(rows) + "\n"
-    os.makedirs(args.out_dir, exist_ok=True)
-    path = os.path.join(args.out_dir, f"dds_throughput-{stamp}")
-    with open(path + ".json", "w") as f:
-        json.dump(result, f, indent=1)
-    with open(path + ".md", "w") as f:
-        f.write(text)
+    path = write_results(args.out_dir, "dds_throughput", stamp, result, text)
     print(text)
     print(f"written {path}.json and {path}.md")
 

@@ -98,30 +98,45 @@ using SocketCanAllocTest = test::SocketCanFixture;
 constexpr int kFrames = 500;
 constexpr auto kWindowDeadline = std::chrono::seconds(60);  // bounds a failure only
 
-TEST_F(SocketCanAllocTest, ForwardingFrameByFrameAllocatesNothing) {
-  ASSERT_TRUE(build("cyclic_app.xml")) << problems();
-  start();
+// EngineData frames (0x100) sent on vcan0 and awaited one by one on vcan1: 10 to warm up,
+// then kFrames counted, with the allocations of the whole process meanwhile.
+struct Forwarded {
+  std::string failed;  // empty when every warm-up frame came through
+  int through = 0;
+  std::uint64_t allocations = 0;
+};
+
+Forwarded forward_engine_data(std::uint8_t (&data)[8]) {
   RawPeer writer("vcan0");
   RawPeer reader("vcan1");
-  ASSERT_EQ(writer.error(), "");
-  ASSERT_EQ(reader.error(), "");
-  std::uint8_t data[8] = {0xA0, 0x0F, 0x78, 0xC8, 0x30, 0x7D, 0x01, 0x00};
+  if (!writer.error().empty()) return {writer.error()};
+  if (!reader.error().empty()) return {reader.error()};
   const auto deadline = Clock::now() + kWindowDeadline;
   for (int i = 0; i < 10; ++i) {  // warm-up
     data[7] = static_cast<std::uint8_t>(i);
-    ASSERT_TRUE(writer.send(0x100, data));
-    ASSERT_TRUE(reader.receive(0x100, data, deadline)) << "warm-up frame " << i << " did not come through";
+    if (!writer.send(0x100, data) || !reader.receive(0x100, data, deadline)) {
+      return {"warm-up frame " + std::to_string(i) + " did not come through"};
+    }
   }
-  int through = 0;
+  Forwarded result;
   const std::uint64_t before = g_all_allocations.load();
   for (int i = 0; i < kFrames; ++i) {
     data[7] = static_cast<std::uint8_t>(i);
     if (!writer.send(0x100, data) || !reader.receive(0x100, data, deadline)) break;
-    ++through;
+    ++result.through;
   }
-  const std::uint64_t allocations = g_all_allocations.load() - before;
-  EXPECT_EQ(through, kFrames);
-  EXPECT_EQ(allocations, 0u) << "allocations while " << through << " frames were forwarded";
+  result.allocations = g_all_allocations.load() - before;
+  return result;
+}
+
+TEST_F(SocketCanAllocTest, ForwardingFrameByFrameAllocatesNothing) {
+  ASSERT_TRUE(build("cyclic_app.xml")) << problems();
+  start();
+  std::uint8_t data[8] = {0xA0, 0x0F, 0x78, 0xC8, 0x30, 0x7D, 0x01, 0x00};
+  const Forwarded forwarded = forward_engine_data(data);
+  ASSERT_EQ(forwarded.failed, "");
+  EXPECT_EQ(forwarded.through, kFrames);
+  EXPECT_EQ(forwarded.allocations, 0u) << "allocations while " << forwarded.through << " frames were forwarded";
 }
 
 // Loop prevention on the path (loop_app.xml: EngineData both ways between vcan0 and vcan1):
@@ -130,27 +145,12 @@ TEST_F(SocketCanAllocTest, ForwardingFrameByFrameAllocatesNothing) {
 TEST_F(SocketCanAllocTest, DroppingTheEchoOfItsOwnFrameAllocatesNothing) {
   ASSERT_TRUE(build("loop_app.xml")) << problems();
   start();
-  RawPeer writer("vcan0");
-  RawPeer reader("vcan1");
-  ASSERT_EQ(writer.error(), "");
-  ASSERT_EQ(reader.error(), "");
   std::uint8_t data[8] = {0xA0, 0x0F, 0x78, 0xC8, 0x30, 0x7D, 0x02, 0x00};
-  const auto deadline = Clock::now() + kWindowDeadline;
-  for (int i = 0; i < 10; ++i) {  // warm-up
-    data[7] = static_cast<std::uint8_t>(i);
-    ASSERT_TRUE(writer.send(0x100, data));
-    ASSERT_TRUE(reader.receive(0x100, data, deadline)) << "warm-up frame " << i << " did not come through";
-  }
-  int through = 0;
-  const std::uint64_t before = g_all_allocations.load();
-  for (int i = 0; i < kFrames; ++i) {
-    data[7] = static_cast<std::uint8_t>(i);
-    if (!writer.send(0x100, data) || !reader.receive(0x100, data, deadline)) break;
-    ++through;
-  }
-  const std::uint64_t allocations = g_all_allocations.load() - before;
-  EXPECT_EQ(through, kFrames);
-  EXPECT_EQ(allocations, 0u) << "allocations while " << through << " frames were forwarded and their echoes dropped";
+  const Forwarded forwarded = forward_engine_data(data);
+  ASSERT_EQ(forwarded.failed, "");
+  EXPECT_EQ(forwarded.through, kFrames);
+  EXPECT_EQ(forwarded.allocations, 0u)
+      << "allocations while " << forwarded.through << " frames were forwarded and their echoes dropped";
   auto loop_dropped = [&](const char* component) {
     nlohmann::json stats;
     engine.stats(stats);
