@@ -102,7 +102,8 @@ Status SocketCanInterceptor::FrameWriter::on_sample(const std::byte* data, const
     std::uint64_t fingerprint = 0;
     if (readers != 0) {
       fingerprint = frame_fingerprint(frame.can_id, frame.len, frame.data);
-      (void)echoes_.table.expect(fingerprint, readers, mono_now());
+      if (!echoes_.table.expect(fingerprint, readers, mono_now()))
+        counters_.echo_unrecorded.fetch_add(1, std::memory_order_relaxed);
     }
     ok = ::write(fd_.load(std::memory_order_acquire), &frame, size) == static_cast<ssize_t>(size);
     if (!ok && readers != 0) echoes_.table.forget(fingerprint);
@@ -606,6 +607,7 @@ void SocketCanInterceptor::describe(nlohmann::json& out) const {
       if (message.cycle_ms != 0) p["scheduled"] = writers_[i]->scheduled.load(std::memory_order_relaxed);
       p["sent"] = counters.sent.load(std::memory_order_relaxed);
       p["send_failed"] = counters.send_failed.load(std::memory_order_relaxed);
+      if (const auto n = counters.echo_unrecorded.load(std::memory_order_relaxed); n != 0) p["echo_unrecorded"] = n;
       p["bad_length"] = counters.bad_length.load(std::memory_order_relaxed);
     }
     ports.push_back(std::move(p));

@@ -69,6 +69,7 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
     std::atomic<std::uint64_t> bad_length{0};
     std::atomic<std::uint64_t> sent{0};
     std::atomic<std::uint64_t> send_failed{0};
+    std::atomic<std::uint64_t> echo_unrecorded{0};  // an echo the full echo table could not record
   };
 
   // One `input` port: the port's sink sends each sample as a frame, or hands it to the

@@ -33,6 +33,13 @@ std::string place(int cpu, int policy, int priority) {
   return "";
 }
 
+// glibc on Linux supports PTHREAD_PRIO_INHERIT: the mutex must say it got it (a plain mutex
+// here would mean the protocol was lost, and the real-time hand-over open to inversion).
+TEST(PiMutex, SaysItInheritsPriority) {
+  PiMutex mutex;
+  EXPECT_TRUE(mutex.inherits_priority());
+}
+
 TEST(PiMutex, HandsOverUnderAConditionLikeAStdMutex) {
   PiMutex mutex;
   PiCondition changed;

@@ -10,7 +10,9 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "../support/daemon_harness.hpp"
@@ -357,10 +359,19 @@ TEST_F(WheelchairDdsNodes, MotorsStopWhenTheJoystickIsKilledAndDriveWhenItReturn
   std::printf("fail-safe: zero command %.3f ms after the last reference's deadline (%.3f ms after it)\n",
               static_cast<double>(zero_at - deadline) / 1e6, static_cast<double>(zero_at - last_reference) / 1e6);
 
-  // The trip, as a DDS application hears of it (the newest event: a busy machine may have
-  // tripped it before, which then recovered).
-  ASSERT_TRUE(eventually([&] { return !alarms.events().empty(); })) << "no watchdog event on polyport/watchdog";
-  const polyport_WatchdogEvent tripped = alarms.events().back();
+  // The trip, as a DDS application hears of it. A busy machine may have tripped it before (Control
+  // itself late by a deadline, then recovered), and that event may be the only one in yet: wait
+  // for the trip that names the joystick's reference.
+  const auto reference_trip = [&]() -> std::optional<polyport_WatchdogEvent> {
+    const auto events = alarms.events();
+    for (auto it = events.rbegin(); it != events.rend(); ++it) {
+      if (it->kind == polyport_WATCHDOG_TRIPPED && std::string_view(it->silent_port) == "Nodes.reference") return *it;
+    }
+    return std::nullopt;
+  };
+  ASSERT_TRUE(eventually([&] { return reference_trip().has_value(); }))
+      << "no watchdog event naming Nodes.reference on polyport/watchdog; events: " << alarms.events().size();
+  const polyport_WatchdogEvent tripped = *reference_trip();
   EXPECT_EQ(tripped.kind, polyport_WATCHDOG_TRIPPED);
   EXPECT_GE(tripped.trips, 1U);
   EXPECT_EQ(tripped.recoveries, tripped.trips - 1);

@@ -14,11 +14,14 @@ namespace polyport {
 class PiMutex {
  public:
   PiMutex() noexcept {
+    // Without inheritance (a C library that refuses the protocol) it is a plain mutex, still
+    // correct but open to the inversion above: inherits_priority() says which one it is.
     pthread_mutexattr_t attributes;
-    pthread_mutexattr_init(&attributes);
-    pthread_mutexattr_setprotocol(&attributes, PTHREAD_PRIO_INHERIT);
-    pthread_mutex_init(&mutex_, &attributes);
-    pthread_mutexattr_destroy(&attributes);
+    const bool have_attributes = pthread_mutexattr_init(&attributes) == 0;
+    inherits_ = have_attributes && pthread_mutexattr_setprotocol(&attributes, PTHREAD_PRIO_INHERIT) == 0;
+    if (inherits_ && pthread_mutex_init(&mutex_, &attributes) != 0) inherits_ = false;
+    if (!inherits_) pthread_mutex_init(&mutex_, nullptr);
+    if (have_attributes) pthread_mutexattr_destroy(&attributes);
   }
   ~PiMutex() { pthread_mutex_destroy(&mutex_); }
   PiMutex(const PiMutex&) = delete;
@@ -28,9 +31,11 @@ class PiMutex {
   bool try_lock() noexcept { return pthread_mutex_trylock(&mutex_) == 0; }
   void unlock() noexcept { pthread_mutex_unlock(&mutex_); }
   pthread_mutex_t* native_handle() noexcept { return &mutex_; }
+  bool inherits_priority() const noexcept { return inherits_; }
 
  private:
   pthread_mutex_t mutex_;
+  bool inherits_ = false;
 };
 
 // Waits on a PiMutex directly (std::condition_variable_any would add a plain mutex of its own).
