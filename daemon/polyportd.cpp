@@ -373,8 +373,9 @@ void print_final_stats(const nlohmann::json& stats) {
     }
   }
   for (const auto& s : stats["services"]) {
-    spdlog::info("  {}: calls {}, ok {}, timeouts {}, errors {}", s.value("name", ""), s.value("calls", 0),
-                 s.value("ok", 0), s.value("timeouts", 0), s.value("errors", 0));
+    spdlog::info("  {}: calls {}, ok {}, timeouts {}, errors {}, cancelled {}", s.value("name", ""),
+                 s.value("calls", 0), s.value("ok", 0), s.value("timeouts", 0), s.value("errors", 0),
+                 s.value("cancelled", 0));
   }
   if (stats.contains("recording")) {
     for (const auto& r : stats["recording"]["connections"]) {

@@ -32,6 +32,28 @@ std::string_view to_string(ReturnCode code) noexcept {
   return "?";
 }
 
+void ComponentBase::set_blocking(bool blocking) noexcept {
+  blocking_.store(blocking, std::memory_order_release);
+  for (const PortDeclaration& declaration : declarations_) {
+    if (declaration.kind != PortKind::service || declaration.direction != PortDirection::required) continue;
+    if (declaration.bound != nullptr && *declaration.bound != nullptr) {
+      static_cast<RequiredServicePort*>(*declaration.bound)->set_blocking(blocking);
+    }
+  }
+}
+
+bool ComponentBase::blocking() const noexcept {
+  if (!blocking_.load(std::memory_order_acquire)) return false;
+  for (const PortDeclaration& declaration : declarations_) {
+    if (declaration.kind != PortKind::service || declaration.direction != PortDirection::required) continue;
+    if (declaration.bound != nullptr && *declaration.bound != nullptr &&
+        !static_cast<const RequiredServicePort*>(*declaration.bound)->blocking()) {
+      return false;
+    }
+  }
+  return true;
+}
+
 PortDeclaration& ComponentBase::declare_port(PortDeclaration declaration) {
   declarations_.push_back(std::move(declaration));
   return declarations_.back();

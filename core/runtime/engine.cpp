@@ -525,9 +525,18 @@ std::vector<std::size_t> Engine::receivers_first(const std::vector<Node>& nodes)
   return order;
 }
 
+void Engine::set_blocking(bool blocking) noexcept {
+  for (const Node& node : nodes_) {
+    for (const auto& port : node.proxy.adaptor->ports()) {
+      if (auto* required = dynamic_cast<RequiredServicePort*>(port.get())) required->set_blocking(blocking);
+    }
+  }
+}
+
 void Engine::stop() {
   if (!started_) return;
   started_ = false;
+  set_blocking(false);  // before any component stops: one may be waiting on another
   timer_.stop();  // no safe value or held sample goes to a component that is stopping
   for (auto it = start_order_.rbegin(); it != start_order_.rend(); ++it) (*it)->stop();
   start_order_.clear();
@@ -710,6 +719,7 @@ void Engine::stats(nlohmann::json& out) const {
                                {"errors", load(k.errors)},
                                {"not_connected", load(k.not_connected)},
                                {"too_many_calls", load(k.too_many_calls)},
+                               {"cancelled", load(k.cancelled)},
                                {"provider_rejected", provided->rejected()},
                                {"latency_ns", to_json(required->latency().summarize())}});
   }

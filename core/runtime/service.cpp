@@ -234,10 +234,16 @@ Status RequiredServicePort::finish(PendingCall& call, void* reply, std::uint32_t
 Status RequiredServicePort::query(std::string_view operation, const void* request, std::uint32_t request_size,
                                   void* reply, std::uint32_t reply_capacity, Nanos timeout,
                                   std::uint32_t* reply_size) {
+  if (!blocking()) {
+    // A call that may not wait is not made: the provider never sees it.
+    counters_.calls.fetch_add(1, std::memory_order_relaxed);
+    counters_.cancelled.fetch_add(1, std::memory_order_relaxed);
+    return Status::cancelled;
+  }
   CallHandle handle = this->request(operation, request, request_size);
   if (!handle) return handle.status;
   const Status status = receive(handle, reply, reply_capacity, timeout, reply_size);
-  if (status == Status::timeout) cancel(handle);
+  if (status == Status::timeout || status == Status::cancelled) cancel(handle);
   return status;
 }
 
@@ -251,18 +257,46 @@ CallHandle RequiredServicePort::request(std::string_view operation, const void* 
 
 Status RequiredServicePort::receive(CallHandle& handle, void* reply, std::uint32_t reply_capacity, Nanos timeout,
                                     std::uint32_t* reply_size) {
+  return wait_for_reply(handle, reply, reply_capacity, true, timeout, reply_size);
+}
+
+Status RequiredServicePort::try_receive(CallHandle& handle, void* reply, std::uint32_t reply_capacity,
+                                        std::uint32_t* reply_size) noexcept {
+  return wait_for_reply(handle, reply, reply_capacity, false, Nanos{0}, reply_size);
+}
+
+Status RequiredServicePort::receive_wait(CallHandle& handle, void* reply, std::uint32_t reply_capacity,
+                                         std::uint32_t* reply_size) {
+  return wait_for_reply(handle, reply, reply_capacity, true, kWaitForever, reply_size);
+}
+
+Status RequiredServicePort::wait_for_reply(CallHandle& handle, void* reply, std::uint32_t reply_capacity, bool wait,
+                                           Nanos timeout, std::uint32_t* reply_size) noexcept {
   if (!handle.call) return handle.status == Status::ok ? Status::no_data : handle.status;
   PendingCall& call = *handle.call;
   std::unique_lock<std::mutex> lock(call.mutex_);
-  // Saturate, so that a huge timeout means "wait as long as it takes", not an overflow.
-  const auto now = std::chrono::steady_clock::now();
-  const auto room = std::chrono::steady_clock::time_point::max() - now;
-  const auto wait = std::chrono::nanoseconds(std::max<std::int64_t>(timeout.count, 0));
-  const auto deadline = wait >= room ? std::chrono::steady_clock::time_point::max() : now + wait;
-  const bool done = call.done_.wait_until(lock, deadline, [&] {
-    return call.state_.load(std::memory_order_acquire) == PendingCall::State::done;
-  });
-  if (!done) {
+  const auto done = [&] { return call.state_.load(std::memory_order_acquire) == PendingCall::State::done; };
+  // The mode is read under the slot's mutex, which set_blocking takes after switching it off
+  // and before waking: a wait either sees it off or is under way when the wake-up comes.
+  const auto over = [&] { return done() || !blocking_.load(std::memory_order_seq_cst); };
+  if (wait && !over()) {
+    if (timeout == kWaitForever) {
+      call.done_.wait(lock, over);
+    } else {
+      // Saturate, so that a huge timeout means "wait as long as it takes", not an overflow.
+      const auto now = std::chrono::steady_clock::now();
+      const auto room = std::chrono::steady_clock::time_point::max() - now;
+      const auto span = std::chrono::nanoseconds(std::max<std::int64_t>(timeout.count, 0));
+      const auto deadline = span >= room ? std::chrono::steady_clock::time_point::max() : now + span;
+      call.done_.wait_until(lock, deadline, over);
+    }
+  }
+  if (!done()) {
+    if (!wait) return Status::no_data;  // not yet; nothing to count
+    if (!blocking_.load(std::memory_order_seq_cst)) {
+      counters_.cancelled.fetch_add(1, std::memory_order_relaxed);
+      return Status::cancelled;
+    }
     counters_.timeouts.fetch_add(1, std::memory_order_relaxed);
     return Status::timeout;
   }
@@ -284,7 +318,19 @@ void RequiredServicePort::cancel(CallHandle& handle) noexcept {
     call.state_.store(PendingCall::State::abandoned, std::memory_order_release);
   }
   handle.call = nullptr;
-  handle.status = Status::timeout;
+  handle.status = Status::cancelled;
+}
+
+void RequiredServicePort::set_blocking(bool blocking) noexcept {
+  blocking_.store(blocking, std::memory_order_seq_cst);
+  if (blocking) return;
+  // Wakes every waiter; taking each slot's mutex after the store is what makes a wait that
+  // was just about to start see the mode off (no lost wake-up). Slots that nobody waits on
+  // cost a lock and an empty notify.
+  for (auto& slot : pool_) {
+    std::lock_guard<std::mutex> lock(slot->mutex_);
+    slot->done_.notify_all();
+  }
 }
 
 Status RequiredServicePort::request_async(std::string_view operation, const void* request,

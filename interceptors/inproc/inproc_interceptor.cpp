@@ -16,7 +16,19 @@ void InprocInterceptor::attach(ExecutionContext& context) {
 }
 
 ReturnCode InprocInterceptor::command(LifecycleCommand command) {
-  return context_ ? context_->command(lifecycle_, command) : lifecycle_.apply(command);
+  // A component stopping may be waiting on a provider that does not answer (a foreign peer
+  // that is gone): its blocking mode goes off first, so that the wait ends (cancelled) and
+  // the command, which runs between two cycles, is not held up behind it.
+  // Activating switches it on again, before onActivated, which may call.
+  if (command == LifecycleCommand::deactivate || command == LifecycleCommand::finalize) {
+    instance_->set_blocking(false);
+  } else if (command == LifecycleCommand::activate) {
+    instance_->set_blocking(true);
+  }
+  const ReturnCode code = context_ ? context_->command(lifecycle_, command) : lifecycle_.apply(command);
+  // A deactivate that did not happen (refused in this state): the component runs on as before.
+  if (lifecycle_.state() == LifecycleState::active) instance_->set_blocking(true);
+  return code;
 }
 
 Result<void> InprocInterceptor::start() {
@@ -32,6 +44,7 @@ Result<void> InprocInterceptor::start() {
 }
 
 void InprocInterceptor::stop() noexcept {
+  instance_->set_blocking(false);  // no call of the component waits from here on
   // Refusing waits for handlers still running on callers' threads; queued calls are refused
   // by the execution context from now on, so none runs after onDeactivated / onFinalize.
   for (ProvidedServicePort* port : provided_) port->set_accepting(false);

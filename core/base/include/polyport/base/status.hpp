@@ -19,6 +19,10 @@ enum class Status : std::uint8_t {
   bad_size,           // a payload of the wrong size for the port's or operation's type
   not_active,         // the provider is not running
   error,              // the provider (or a foreign peer) reported an error
+  // The caller's side gave up without waiting: its blocking mode is off (a component being
+  // stopped), or the call was discarded. Never sent in a reply header (codes there end at
+  // error); it comes after error so that those codes keep their values.
+  cancelled,
 };
 
 constexpr std::string_view to_string(Status status) noexcept {
@@ -34,6 +38,7 @@ constexpr std::string_view to_string(Status status) noexcept {
     case Status::bad_size: return "bad_size";
     case Status::not_active: return "not_active";
     case Status::error: return "error";
+    case Status::cancelled: return "cancelled";
   }
   return "?";
 }

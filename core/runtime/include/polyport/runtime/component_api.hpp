@@ -16,6 +16,7 @@
 // trivially copyable structs laid out like the IDL type.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <cstring>
 #include <deque>
@@ -87,6 +88,13 @@ class ComponentBase {
   }
 
   const std::string& instance_name() const noexcept { return instance_name_; }
+  // The blocking mode of the component's required services (SmartSoft's blocking()): while
+  // it is off no call waits; a query, receive or receive_wait under way ends at once with
+  // Status::cancelled. The engine switches it off before deactivating, finalizing or
+  // stopping the component, and on before activating it. Any thread. blocking() is false
+  // also while the engine has switched a required port's mode off (Engine::set_blocking).
+  void set_blocking(bool blocking) noexcept;
+  bool blocking() const noexcept;
   // The period of the execution context running this component (0 when passive).
   double period_seconds() const noexcept { return period_seconds_; }
 
@@ -115,6 +123,7 @@ class ComponentBase {
   std::string instance_name_;
   std::map<std::string, std::string, std::less<>> properties_;
   double period_seconds_ = 0.0;
+  std::atomic<bool> blocking_{true};
 };
 
 namespace detail {
@@ -247,6 +256,12 @@ class ProvidedService {
   Port* port_ = nullptr;
 };
 
+// A required service: SmartSoft's query client. query() is the synchronous call; request()
+// starts an asynchronous one, receive() takes its reply if it is there (no_data: not yet),
+// receive(timeout) waits at most that long, receive_wait() as long as it takes, discard()
+// gives it up. Every wait ends at once with Status::cancelled when the component's blocking
+// mode goes off (ComponentBase::set_blocking); the call then stays in flight until received
+// or discarded (a query gives its call up itself).
 class RequiredService {
  public:
   RequiredService(ComponentBase& owner, std::string name) {
@@ -254,7 +269,7 @@ class RequiredService {
                                        0, 1, &port_, {}});
   }
   template <class Req, class Rep>
-  Status query(std::string_view operation, const Req& request, Rep& reply, Nanos timeout) {
+  Status query(std::string_view operation, const Req& request, Rep& reply, Nanos timeout = kWaitForever) {
     return port().query(operation, &request, sizeof(Req), &reply, sizeof(Rep), timeout);
   }
   template <class Req>
@@ -262,9 +277,18 @@ class RequiredService {
     return port().request(operation, &request, sizeof(Req));
   }
   template <class Rep>
+  Status receive(CallHandle& handle, Rep& reply) noexcept {
+    return port().try_receive(handle, &reply, sizeof(Rep));
+  }
+  template <class Rep>
   Status receive(CallHandle& handle, Rep& reply, Nanos timeout) {
     return port().receive(handle, &reply, sizeof(Rep), timeout);
   }
+  template <class Rep>
+  Status receive_wait(CallHandle& handle, Rep& reply) {
+    return port().receive_wait(handle, &reply, sizeof(Rep));
+  }
+  void discard(CallHandle& handle) noexcept { port().cancel(handle); }
   template <class Req>
   Status send(std::string_view operation, const Req& request) {
     return port().send(operation, &request, sizeof(Req));

@@ -37,8 +37,14 @@ class Engine {
   // callers start. Stopping goes the other way round.
   // Warnings (e.g. real-time priority refused) are returned for the caller to log.
   Result<void> start(std::vector<std::string>& warnings);
-  // Deactivates and finalizes components in reverse order, then stops the contexts.
+  // Deactivates and finalizes components in reverse order, then stops the contexts. The
+  // blocking mode of every required service port goes off first (see set_blocking), so a
+  // component waiting on a provider that does not answer does not hold up the stop.
   void stop();
+  // The blocking mode of every component's required service ports, engine-wide (a
+  // component's own is ComponentBase::set_blocking): off, every call that waits ends at
+  // once with cancelled and none waits until it is on again. Control thread.
+  void set_blocking(bool blocking) noexcept;
 
   // Connects a data or event port pair at run time (control thread).
   Result<Connection*> connect(const std::string& source_component, const std::string& source_port,

@@ -5,14 +5,21 @@
 // ServiceTarget: in-process handlers run it on the caller's thread or queue it for the
 // provider's own execution context; a foreign model's adaptor forwards it to its peer and
 // completes it from that model's receive thread. The caller waits for completion with a
-// timeout (a blocking wait is what a synchronous call is); a slot abandoned by a timed-out
-// caller is returned to the pool when the provider completes it.
+// timeout or without one (a blocking wait is what a synchronous call is); a slot abandoned by
+// a caller that gave up is returned to the pool when the provider completes it.
+//
+// The blocking mode (SmartSoft's `blocking(false)`): while it is off, no call of the port
+// waits. A wait under way ends at once with `cancelled` and a waiting call started then
+// returns `cancelled` at once, so that a component being stopped rushes through its calls
+// instead of hanging on a provider that does not answer. The engine switches it off before
+// it deactivates or stops the component and on again when it activates it.
 #pragma once
 
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -140,6 +147,9 @@ class ProvidedServicePort final : public Port, private ServiceTarget {
   std::atomic<std::uint64_t> rejected_{0};
 };
 
+// A timeout that means "no timeout": wait until the reply comes or the blocking mode goes off.
+inline constexpr Nanos kWaitForever{std::numeric_limits<std::int64_t>::max()};
+
 // A handle on an asynchronous call started by request().
 struct CallHandle {
   PendingCall* call = nullptr;
@@ -164,17 +174,34 @@ class RequiredServicePort final : public Port {
     return binding != nullptr ? binding->provider : nullptr;
   }
 
-  // Synchronous call.
+  // Synchronous call: waits at most `timeout` (kWaitForever: until the reply comes or the
+  // blocking mode goes off). On timeout or cancelled the call is given up (its slot returns
+  // to the pool when the provider completes it). While the blocking mode is off it returns
+  // cancelled at once and the provider is not called.
   Status query(std::string_view operation, const void* request, std::uint32_t request_size,
                void* reply, std::uint32_t reply_capacity, Nanos timeout,
                std::uint32_t* reply_size = nullptr);
-  // Asynchronous call: request() starts it, receive() waits for its reply (at most timeout).
-  // On a timeout the call stays in flight and receive() may be called again; cancel()
-  // gives up on it.
+  // Asynchronous call (SmartSoft's request / receive / receiveWait): request() starts it;
+  // receive() waits at most `timeout` for its reply, try_receive() not at all (no_data: not
+  // yet), receive_wait() as long as it takes. A receive that ends with timeout, no_data or
+  // cancelled (the blocking mode is off, see set_blocking) leaves the call in flight: receive
+  // again, or cancel() to give up on it. A reply that is there is taken whatever the mode.
   CallHandle request(std::string_view operation, const void* request, std::uint32_t request_size);
   Status receive(CallHandle& handle, void* reply, std::uint32_t reply_capacity, Nanos timeout,
                  std::uint32_t* reply_size = nullptr);
+  Status try_receive(CallHandle& handle, void* reply, std::uint32_t reply_capacity,
+                     std::uint32_t* reply_size = nullptr) noexcept;
+  Status receive_wait(CallHandle& handle, void* reply, std::uint32_t reply_capacity,
+                      std::uint32_t* reply_size = nullptr);
+  // Gives up on the call (SmartSoft's discard); a later receive on the handle returns
+  // cancelled.
   void cancel(CallHandle& handle) noexcept;
+
+  // The blocking mode; on from construction. Switching it off wakes every call of this port
+  // that waits (they return cancelled); calls already in flight stay in flight. Any thread
+  // (the engine's control thread, or the component itself); not on the forwarding path.
+  void set_blocking(bool blocking) noexcept;
+  bool blocking() const noexcept { return blocking_.load(std::memory_order_acquire); }
   // One-way send: no reply, no wait.
   Status send(std::string_view operation, const void* request, std::uint32_t request_size);
   // Asynchronous call without a waiting thread: `observer` is told of its end with `tag`.
@@ -191,7 +218,7 @@ class RequiredServicePort final : public Port {
 
   struct Counters {
     std::atomic<std::uint64_t> calls{0}, ok{0}, timeouts{0}, errors{0}, not_connected{0},
-        too_many_calls{0};
+        too_many_calls{0}, cancelled{0};
   };
   const Counters& counters() const noexcept { return counters_; }
   const LatencyHistogram& latency() const noexcept { return latency_; }
@@ -205,6 +232,9 @@ class RequiredServicePort final : public Port {
   void release(PendingCall& call) noexcept;
   Status finish(PendingCall& call, void* reply, std::uint32_t reply_capacity,
                 std::uint32_t* reply_size) noexcept;
+  // receive's common part; `wait` false: no wait at all (try_receive).
+  Status wait_for_reply(CallHandle& handle, void* reply, std::uint32_t reply_capacity, bool wait,
+                        Nanos timeout, std::uint32_t* reply_size) noexcept;
 
   std::string service_type_;
   std::vector<OperationInfo> operations_;
@@ -221,6 +251,7 @@ class RequiredServicePort final : public Port {
   std::vector<std::unique_ptr<Binding>> bindings_;  // control thread
   Counters counters_;
   LatencyHistogram latency_;
+  std::atomic<bool> blocking_{true};
 };
 
 }  // namespace polyport
