@@ -74,7 +74,7 @@ Status ComponentBase::notify(NotificationKind kind) noexcept {
   ComponentNotification sample;
   std::memset(&sample, 0, sizeof sample);  // padding too: the sample is copied whole
   sample.kind = static_cast<std::int32_t>(kind);
-  sample.serial = notification_sequence_.fetch_add(1, std::memory_order_relaxed) + 1;
+  sample.serial = static_cast<std::int64_t>(notification_sequence_.fetch_add(1, std::memory_order_relaxed) + 1);
   sample.time_ns = mono_now().ns;
   const std::size_t length = std::min(instance_name_.size(), sizeof sample.component - 1);
   std::memcpy(sample.component, instance_name_.data(), length);

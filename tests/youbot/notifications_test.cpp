@@ -77,7 +77,7 @@ TEST(Notifications, CarryKindSequenceTimeAndInstanceName) {
   const std::int32_t kinds[] = {0, 2, 1};  // busy, refresh, idle as in component_notification.idl
   for (std::size_t i = 0; i < all.size(); ++i) {
     EXPECT_EQ(all[i].kind, kinds[i]);
-    EXPECT_EQ(all[i].serial, i + 1);
+    EXPECT_EQ(all[i].serial, static_cast<std::int64_t>(i + 1));
     EXPECT_GE(all[i].time_ns, before);
     EXPECT_LE(all[i].time_ns, after);
     EXPECT_STREQ(all[i].component, "Driver");
@@ -132,7 +132,7 @@ TEST(Notifications, AutoRaisesBusyBeforeAndIdleAfterEachCycle) {
   for (std::size_t i = 0; i < all.size(); ++i) {
     const std::int32_t expected = i % 3 == 0 ? 0 : i % 3 == 1 ? 2 : 1;  // busy, refresh, idle
     EXPECT_EQ(all[i].kind, expected) << "notification " << i;
-    EXPECT_EQ(all[i].serial, i + 1);
+    EXPECT_EQ(all[i].serial, static_cast<std::int64_t>(i + 1));
   }
 }
 

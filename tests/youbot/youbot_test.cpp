@@ -8,11 +8,15 @@
 // measured after must be the lower one.
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <string>
+#include <vector>
 
 #include "../support/daemon_harness.hpp"
+#include "../support/multicast_namespace.hpp"
 
 namespace polyport::test {
 namespace {
@@ -90,6 +94,92 @@ TEST_F(YoubotTest, InProcessMonitorCommandsQueriesHearsNotificationsAndChangesTh
     EXPECT_GE(ec["period_changes"].get<int>(), 1) << ec.dump();
   }
   EXPECT_TRUE(found) << stats["execution_contexts"].dump();
+}
+
+// One notification as lcm-logger recorded it: component_notification.lcm's struct, LCM's
+// big-endian encoding after the 8-byte fingerprint.
+struct LoggedNotification {
+  std::int32_t kind;
+  std::int64_t serial;
+  std::int64_t time_ns;
+  std::string component;
+};
+
+std::uint64_t big_endian(const std::vector<std::uint8_t>& bytes, std::size_t at, int size) {
+  std::uint64_t v = 0;
+  for (int i = 0; i < size; ++i) v = (v << 8) | bytes.at(at + static_cast<std::size_t>(i));
+  return v;
+}
+
+// The events of an LCM log file (LCM's log format: sync word, event number, time, channel
+// length, data length, channel, data) on `channel`, decoded.
+std::vector<LoggedNotification> logged_notifications(const fs::path& log, const std::string& channel) {
+  std::ifstream in(log, std::ios::binary);
+  const std::vector<std::uint8_t> b((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::vector<LoggedNotification> out;
+  std::size_t at = 0;
+  while (at + 28 <= b.size()) {
+    if (big_endian(b, at, 4) != 0xEDA1DA01u) break;
+    const auto channel_size = static_cast<std::size_t>(big_endian(b, at + 20, 4));
+    const auto data_size = static_cast<std::size_t>(big_endian(b, at + 24, 4));
+    const std::size_t data = at + 28 + channel_size;
+    if (data + data_size > b.size()) break;  // the logger was still writing it
+    if (std::string(b.begin() + static_cast<std::ptrdiff_t>(at + 28), b.begin() + static_cast<std::ptrdiff_t>(data)) ==
+            channel &&
+        data_size >= 8 + 4 + 8 + 8 + 4) {
+      LoggedNotification n;
+      std::size_t p = data + 8;  // past the fingerprint
+      n.kind = static_cast<std::int32_t>(big_endian(b, p, 4));
+      n.serial = static_cast<std::int64_t>(big_endian(b, p + 4, 8));
+      n.time_ns = static_cast<std::int64_t>(big_endian(b, p + 12, 8));
+      const auto length = static_cast<std::size_t>(big_endian(b, p + 20, 4));  // with the NUL
+      if (length > 0 && p + 24 + length <= data + data_size) {
+        n.component.assign(b.begin() + static_cast<std::ptrdiff_t>(p + 24),
+                           b.begin() + static_cast<std::ptrdiff_t>(p + 24 + length - 1));
+      }
+      out.push_back(n);
+    }
+    at = data + data_size;
+  }
+  return out;
+}
+
+// The driver's notifications on an LCM channel as well: lcm-logger (Debian's lcm-tools), a
+// program that knows nothing of polyport, records them; the test decodes its log.
+TEST_F(YoubotTest, NotificationsReachAnLcmChannel) {
+  isolate_with_multicast_route();
+  if (HasFatalFailure()) return;
+  if (std::system("command -v lcm-logger > /dev/null") != 0) GTEST_SKIP() << "lcm-logger (lcm-tools) is not installed";
+  const fs::path log = dir() / "notifications.lcmlog";
+  auto logger = peer("/usr/bin/lcm-logger", "logger",
+                     {"-q", "-f", "--flush-interval=10", "-c", "YOUBOT_NOTIFICATIONS", log.string()});
+  auto daemon = this->daemon(POLYPORT_SOURCE_DIR "/tests/youbot/data/youbot_lcm.xml");
+  ASSERT_TRUE(eventually([&] { return monitor_done(*daemon); }, 60s)) << daemon->errors();
+  std::vector<LoggedNotification> logged;
+  // Done means busy and idle twice: wait for the logger to have them on disk.
+  ASSERT_TRUE(eventually([&] {
+    logged = logged_notifications(log, "YOUBOT_NOTIFICATIONS");
+    int idle = 0;
+    for (const auto& n : logged) idle += n.kind == 1;
+    return idle >= 2;
+  })) << logged.size() << " notifications logged";
+  stop(*daemon);
+  int busy = 0, idle = 0, refresh = 0;
+  for (std::size_t i = 0; i < logged.size(); ++i) {
+    const LoggedNotification& n = logged[i];
+    EXPECT_EQ(n.component, "Driver");
+    ASSERT_TRUE(n.kind >= 0 && n.kind <= 2) << n.kind;
+    busy += n.kind == 0;
+    idle += n.kind == 1;
+    refresh += n.kind == 2;
+    if (i > 0) {
+      EXPECT_GT(n.serial, logged[i - 1].serial);
+      EXPECT_GE(n.time_ns, logged[i - 1].time_ns);
+    }
+  }
+  EXPECT_GE(busy, 2);
+  EXPECT_GE(idle, 2);
+  EXPECT_GT(refresh, 0);
 }
 
 #ifdef YOUBOT_DDS_NODE

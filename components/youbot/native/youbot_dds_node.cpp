@@ -177,10 +177,10 @@ int run_driver(const Options& options) {
   std::uint64_t cycle = 0;
   std::uint64_t serial = 0;
   std::int64_t period_ns = std::llround(options.period_ms * 1e6);
-  const auto notify = [&](polyport_ComponentNotificationKind kind) {
+  const auto notify = [&](std::int32_t kind) {
     polyport_ComponentNotification n{};
     n.kind = kind;
-    n.serial = ++serial;
+    n.serial = static_cast<std::int64_t>(++serial);
     n.time_ns = now_ns();
     std::snprintf(n.component, sizeof n.component, "%s", "Driver");
     dds_write(notifications, &n);

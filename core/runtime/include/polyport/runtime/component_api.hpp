@@ -43,7 +43,7 @@ class ExecutionContext;
 enum class NotificationKind : std::int32_t { busy = 0, idle = 1, refresh = 2 };
 struct ComponentNotification {
   std::int32_t kind;       // NotificationKind
-  std::uint64_t serial;    // 1, 2, 3, ... per component, over all kinds
+  std::int64_t serial;     // 1, 2, 3, ... per component, over all kinds
   std::int64_t time_ns;    // CLOCK_MONOTONIC when raised
   char component[64];      // the instance name (string<63>)
 };
