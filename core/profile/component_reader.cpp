@@ -2,11 +2,75 @@
 // problem at its place; the model's own elements go to model_elements.cpp.
 
 #include "loader.hpp"
+#include "polyport/profile/notifications.hpp"
 #include "polyport/profile/runtime_checks.hpp"
 
 #include <cstdio>
 
 namespace polyport::detail {
+
+namespace {
+
+constexpr const char* kNotificationType = "polyport::ComponentNotification";
+
+// <notifications port="notifications" auto="false"/>: adds the component's notification
+// port (an event output of polyport::ComponentNotification) to its ports. After <ports>, so
+// a name already taken is reported here.
+void read_notifications(const Reporter& report, pugi::xml_node element, LoadedComponent& component) {
+  ComponentProfile& profile = component.profile;
+  NotificationSettings spec;
+  spec.where = report.xml().at(element);
+  if (const auto port = element.attribute("port")) {
+    spec.port = std::string(trim(port.value()));
+    if (spec.port.empty()) {
+      report.error_attribute(element, "port", "empty attribute 'port'");
+      return;
+    }
+  }
+  if (const auto automatic = element.attribute("auto")) {
+    const std::string text(trim(automatic.value()));
+    if (const auto value = lookup(kBooleans, text)) {
+      spec.automatic = *value;
+    } else {
+      report.error_attribute(element, "auto", "bad auto " + in_quotes(text) + " (accepted: " + accepted(kBooleans) + ")");
+      return;
+    }
+  }
+  if (const auto kind = element.attribute("kind")) {
+    const std::string text(trim(kind.value()));
+    if (text == "data") {
+      spec.kind = PortKind::data;
+    } else if (text != "event") {
+      report.error_attribute(element, "kind", "bad kind " + in_quotes(text) + " (accepted: event, data)");
+      return;
+    }
+  }
+  if (profile.model != "inproc") {
+    report.error(element, "<notifications> are raised by in-process components; a component of model " +
+                              in_quotes(profile.model) + " carries " + kNotificationType +
+                              " on a port of its own");
+    return;
+  }
+  if (profile.find_port(spec.port) != nullptr) {
+    const std::string message =
+        "the notification port " + in_quotes(spec.port) + " is already a port of the component";
+    if (element.attribute("port")) report.error_attribute(element, "port", message);
+    else report.error(element, message + " (name another with port=\"...\")");
+    return;
+  }
+  PortSpec port;
+  port.name = spec.port;
+  port.kind = spec.kind;
+  port.direction = PortDirection::output;
+  port.data_type = kNotificationType;
+  port.where = spec.where;
+  component.type_uses.push_back({kNotificationType, spec.where, element_path(element)});
+  profile.ports.push_back(std::move(port));
+  // The in-process model has no settings of its own otherwise (no section reader).
+  profile.model_settings = std::make_shared<const NotificationSettings>(std::move(spec));
+}
+
+}  // namespace
 
 void Loader::load_component(const fs::path& file, const SourceLocation& referenced_at,
                     const std::string& referenced_path) {
@@ -68,6 +132,7 @@ void Loader::read_component(const Reporter& report, pugi::xml_node root, LoadedC
   }
   if (const auto ports = children.one("ports")) read_ports(report, ports, component);
   if (component.own_reader) profile.model_settings = component.own_reader->finish();
+  if (const auto notifications = children.one("notifications")) read_notifications(report, notifications, component);
   component.foreign_readers.clear();
 }
 

@@ -190,6 +190,7 @@ const std::vector<ChildRule> kComponentRules = {
     {"types", {"types"}},
     {"properties", {"properties"}},
     {"ports", {"ports"}},
+    {"notifications", {"notifications"}, false, {"port", "auto", "kind"}},
 };
 const std::vector<ChildRule> kEnvironmentRules = {
     {"library_type", {"library_type"}},

@@ -1,10 +1,14 @@
 #include "polyport/runtime/component.hpp"
 
+#include <algorithm>
 #include <charconv>
+#include <cmath>
+#include <cstring>
 #include <cstdlib>
 #include <utility>
 
 #include "polyport/runtime/component_api.hpp"
+#include "polyport/runtime/execution_context.hpp"
 
 namespace polyport {
 
@@ -64,6 +68,39 @@ void ComponentBase::set_instance(std::string name, std::map<std::string, std::st
   instance_name_ = std::move(name);
   properties_ = std::move(properties);
   period_seconds_ = period_seconds;
+}
+
+double ComponentBase::period_seconds() const noexcept {
+  return context_ ? static_cast<double>(context_->period().count) / 1e9 : period_seconds_;
+}
+
+ReturnCode ComponentBase::request_period(double seconds) noexcept {
+  if (context_ == nullptr) return ReturnCode::unsupported;
+  if (!std::isfinite(seconds) || seconds * 1e9 < static_cast<double>(ExecutionContext::kMinPeriod.count) ||
+      seconds > 3600.0) {
+    return ReturnCode::bad_parameter;
+  }
+  return context_->set_period(Nanos{std::llround(seconds * 1e9)}) ? ReturnCode::ok : ReturnCode::bad_parameter;
+}
+
+void ComponentBase::enable_notifications(std::string port_name, bool automatic, PortKind kind) {
+  auto_notifications_ = automatic;
+  declare_port(detail::make_declaration<ComponentNotification>(std::move(port_name), kind,
+                                                               PortDirection::output, &notifications_));
+}
+
+// The sample is built on the stack (the caller's thread, any of them) and copied by the port:
+// no allocation, no lock; the serial number orders notifications raised from several threads.
+Status ComponentBase::notify(NotificationKind kind) noexcept {
+  if (notifications_ == nullptr) return Status::not_connected;
+  ComponentNotification sample;
+  std::memset(&sample, 0, sizeof sample);  // padding too: the sample is copied whole
+  sample.kind = static_cast<std::int32_t>(kind);
+  sample.serial = static_cast<std::int64_t>(notification_sequence_.fetch_add(1, std::memory_order_relaxed) + 1);
+  sample.time_ns = mono_now().ns;
+  const std::size_t length = std::min(instance_name_.size(), sizeof sample.component - 1);
+  std::memcpy(sample.component, instance_name_.data(), length);
+  return static_cast<DataOutPort*>(notifications_)->write(&sample, sizeof sample);
 }
 
 ReturnCode ComponentBase::change_property(std::string_view name, std::string value) noexcept {

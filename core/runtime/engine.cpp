@@ -727,7 +727,8 @@ void Engine::stats(nlohmann::json& out) const {
   for (const auto& context : executors_.contexts()) {
     if (context->retired()) continue;
     nlohmann::json j{{"name", context->settings().name},
-                     {"period_ns", context->settings().period.count},
+                     {"period_ns", context->period().count},
+                     {"period_changes", context->period_changes()},
                      {"cycles", context->cycles()},
                      {"overruns", context->overruns()},
                      {"missed_periods", context->missed_periods()},

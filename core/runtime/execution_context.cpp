@@ -29,12 +29,21 @@ ExecutionContext::ExecutionContext(ExecutionSettings settings) : settings_(std::
   if (settings_.period < kMinPeriod) settings_.period = kMinPeriod;
   if (settings_.spin < Nanos{0}) settings_.spin = Nanos{0};
   if (settings_.spin > settings_.period) settings_.spin = settings_.period;
+  period_ns_.store(settings_.period.count, std::memory_order_relaxed);
+}
+
+bool ExecutionContext::set_period(Nanos period) noexcept {
+  if (period < kMinPeriod) return false;
+  period_ns_.store(period.count, std::memory_order_relaxed);
+  period_changes_.fetch_add(1, std::memory_order_relaxed);
+  return true;
 }
 
 ExecutionContext::~ExecutionContext() { stop(); }
 
 void ExecutionContext::add(Lifecycle& lifecycle, std::vector<ProvidedServicePort*> served) {
   members_.push_back(&lifecycle);
+  lifecycle.component().attach_execution_context(this);
   served_.insert(served_.end(), served.begin(), served.end());
 }
 
@@ -115,10 +124,10 @@ inline void cpu_pause() noexcept {
 
 }  // namespace
 
-void ExecutionContext::sleep_until(MonoTime deadline) {
+void ExecutionContext::sleep_until(MonoTime deadline, Nanos spin) {
   // A futex wait with an absolute CLOCK_MONOTONIC deadline (FUTEX_WAIT_BITSET) sleeps as
   // precisely as clock_nanosleep, but a command or stop() can wake it at once.
-  const MonoTime sleep_end = deadline + Nanos{-settings_.spin.count};
+  const MonoTime sleep_end = deadline + Nanos{-spin.count};
   for (;;) {
     const std::uint32_t seen = wake_word_.load(std::memory_order_acquire);
     if (stop_requested_.load(std::memory_order_acquire)) return;
@@ -131,7 +140,7 @@ void ExecutionContext::sleep_until(MonoTime deadline) {
     syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(&wake_word_), FUTEX_WAIT_BITSET_PRIVATE, seen, &until,
             nullptr, FUTEX_BITSET_MATCH_ANY);
   }
-  if (settings_.spin.count == 0) return;  // sleep_end was the deadline
+  if (spin.count == 0) return;  // sleep_end was the deadline
   // The spin tail: the clock, a pause instruction, and commands and stop as above.
   while (mono_now() < deadline) {
     if (stop_requested_.load(std::memory_order_relaxed)) return;
@@ -161,20 +170,29 @@ void ExecutionContext::run() {
 
     const MonoTime cycle_start = mono_now();
     for (ProvidedServicePort* port : served_) port->serve_queued();
-    for (Lifecycle* member : members_) member->execute();
+    for (Lifecycle* member : members_) {
+      // <notifications auto="true">: busy before, idle after each onExecute of an active member.
+      ComponentBase& component = member->component();
+      const bool notify = component.auto_notifications() && member->state() == LifecycleState::active;
+      if (notify) component.notify_busy();
+      member->execute();
+      if (notify) component.notify_idle();
+    }
     const MonoTime cycle_end = mono_now();
     cycles_.fetch_add(1, std::memory_order_relaxed);
     cycle_time_.record((cycle_end - cycle_start).count);
 
-    deadline = deadline + settings_.period;
+    // Read once per cycle: a set_period() takes effect from this deadline on.
+    const Nanos period = this->period();
+    deadline = deadline + period;
     if (cycle_end > deadline) {
       // Overrun: skip the periods already missed instead of running them back-to-back.
       overruns_.fetch_add(1, std::memory_order_relaxed);
-      const std::int64_t behind = (cycle_end - deadline).count / settings_.period.count + 1;
+      const std::int64_t behind = (cycle_end - deadline).count / period.count + 1;
       missed_.fetch_add(static_cast<std::uint64_t>(behind), std::memory_order_relaxed);
-      deadline = deadline + Nanos{behind * settings_.period.count};
+      deadline = deadline + Nanos{behind * period.count};
     }
-    sleep_until(deadline);
+    sleep_until(deadline, settings_.spin < period ? settings_.spin : period);
     if (stop_requested_.load(std::memory_order_acquire)) break;
     jitter_.record((mono_now() - deadline).count);
   }

@@ -72,7 +72,7 @@ InterceptorStatus InprocInterceptor::status() const {
 
 void InprocInterceptor::describe(nlohmann::json& out) const {
   out["execution_context"] = context_ ? nlohmann::json(context_->settings().name) : nlohmann::json("passive");
-  if (context_) out["period_ns"] = context_->settings().period.count;
+  if (context_) out["period_ns"] = context_->period().count;
 }
 
 }  // namespace polyport::inproc

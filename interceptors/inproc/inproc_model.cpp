@@ -3,6 +3,7 @@
 #include "inproc_adaptor.hpp"
 #include "inproc_interceptor.hpp"
 #include "plugin_library.hpp"
+#include "polyport/profile/notifications.hpp"
 
 namespace polyport::inproc {
 
@@ -73,6 +74,10 @@ std::optional<Proxy> InprocModel::create_proxy(const Subcomponent& sub, ModelCon
   for (const PropertySpec& property : profile.properties) properties[property.name] = property.value;
   const bool passive = profile.execution.type == ExecutionType::passive;
   instance->set_instance(sub.name, std::move(properties), passive ? 0.0 : profile.execution.period_ms / 1000.0);
+  if (const auto* notifications = dynamic_cast<const NotificationSettings*>(profile.model_settings.get())) {
+    // The component did not declare this port: the profile asked for it (<notifications>).
+    instance->enable_notifications(notifications->port, notifications->automatic, notifications->kind);
+  }
 
   std::unique_ptr<InprocAdaptor> adaptor = InprocAdaptor::create(sub, context.types, *instance, passive, diagnostics);
   if (!adaptor) return std::nullopt;

@@ -33,7 +33,20 @@
 
 namespace polyport {
 
-inline constexpr int kComponentApiVersion = 1;
+inline constexpr int kComponentApiVersion = 2;
+
+class ExecutionContext;
+
+// A component's busy / idle / refresh notifications (JOrocos's `notifying` interface): the
+// flat layout of polyport::ComponentNotification (config/types/component_notification.idl),
+// written on the event output port the component profile's <notifications> element adds.
+enum class NotificationKind : std::int32_t { busy = 0, idle = 1, refresh = 2 };
+struct ComponentNotification {
+  std::int32_t kind;       // NotificationKind
+  std::int64_t serial;     // 1, 2, 3, ... per component, over all kinds
+  std::int64_t time_ns;    // CLOCK_MONOTONIC when raised
+  char component[64];      // the instance name (string<63>)
+};
 
 enum class ReturnCode : std::uint8_t { ok, error, bad_parameter, unsupported, precondition_not_met };
 std::string_view to_string(ReturnCode code) noexcept;
@@ -95,8 +108,27 @@ class ComponentBase {
   // also while the engine has switched a required port's mode off (Engine::set_blocking).
   void set_blocking(bool blocking) noexcept;
   bool blocking() const noexcept;
-  // The period of the execution context running this component (0 when passive).
-  double period_seconds() const noexcept { return period_seconds_; }
+  // The period of the execution context running this component (0 when passive): the
+  // current one, which request_period may have changed.
+  double period_seconds() const noexcept;
+  // Asks the execution context running this component for another period (seconds), from
+  // the next cycle on; any thread. A context is shared by the components with the same
+  // execution settings, unless the profile says periodic-exclusive: the change applies to
+  // all of them. bad_parameter below 1 us (or not finite), unsupported when passive.
+  ReturnCode request_period(double seconds) noexcept;
+
+  // Busy / idle / refresh notifications on the port the component profile's
+  // <notifications port=".."/> names (docs/PROFILES.md, "Notifications"). Any thread, no
+  // allocation; not_connected (and nothing sent) when the profile gives the component no
+  // such port. With <notifications auto="true"/> the execution context raises busy before
+  // and idle after each onExecute on top of what the component raises itself.
+  Status notify_busy() noexcept { return notify(NotificationKind::busy); }
+  Status notify_idle() noexcept { return notify(NotificationKind::idle); }
+  Status notify_refresh() noexcept { return notify(NotificationKind::refresh); }
+  Status notify(NotificationKind kind) noexcept;
+  bool notifications_enabled() const noexcept { return notifications_ != nullptr; }
+  bool auto_notifications() const noexcept { return auto_notifications_; }
+  std::uint64_t notifications_sent() const noexcept { return notification_sequence_.load(std::memory_order_relaxed); }
 
   // Properties from the component profile; `fallback` when absent or not convertible.
   bool has_property(std::string_view name) const;
@@ -117,6 +149,11 @@ class ComponentBase {
   // The current values. Read on the control thread, which is the only one that starts a
   // change and waits for it to finish.
   const std::map<std::string, std::string, std::less<>>& properties() const noexcept { return properties_; }
+  // Declares the notification output port (before the engine binds the ports).
+  void enable_notifications(std::string port_name, bool automatic, PortKind kind = PortKind::event);
+  // The context that runs this component (ExecutionContext::add); null while passive.
+  void attach_execution_context(ExecutionContext* context) noexcept { context_ = context; }
+  ExecutionContext* execution_context() const noexcept { return context_; }
 
  private:
   std::deque<PortDeclaration> declarations_;  // a deque: declarations keep their address
@@ -124,6 +161,10 @@ class ComponentBase {
   std::map<std::string, std::string, std::less<>> properties_;
   double period_seconds_ = 0.0;
   std::atomic<bool> blocking_{true};
+  ExecutionContext* context_ = nullptr;
+  Port* notifications_ = nullptr;
+  bool auto_notifications_ = false;
+  std::atomic<std::uint64_t> notification_sequence_{0};
 };
 
 namespace detail {

@@ -9,6 +9,10 @@
 // still applying commands and seeing stop(): the wake-up no longer depends on how late the
 // kernel wakes a sleeper, at the cost of a busy core for the tail of every period.
 //
+// The period can change while the context runs (set_period, from any thread: a component's
+// request_period): the thread reads it once per cycle, so the next deadline is the last one
+// plus the new period. A spin tail longer than the new period is cut to it.
+//
 // Lifecycle commands (and property changes) for a component that belongs to a running context
 // are executed by the context's thread between cycles, so every hook of a component runs on
 // one thread.
@@ -77,7 +81,13 @@ class ExecutionContext {
   // change). Control path.
   ReturnCode call(const std::function<ReturnCode()>& task);
 
+  // settings().period stays what the profile asked for (shared contexts are keyed by it);
+  // period() is the one the thread runs at now.
   const ExecutionSettings& settings() const noexcept { return settings_; }
+  Nanos period() const noexcept { return Nanos{period_ns_.load(std::memory_order_relaxed)}; }
+  // From the next cycle on; false (and nothing changed) below kMinPeriod. Any thread.
+  bool set_period(Nanos period) noexcept;
+  std::uint64_t period_changes() const noexcept { return period_changes_.load(std::memory_order_relaxed); }
   const std::vector<Lifecycle*>& members() const noexcept { return members_; }
   std::uint64_t cycles() const noexcept { return cycles_.load(std::memory_order_relaxed); }
   std::uint64_t overruns() const noexcept { return overruns_.load(std::memory_order_relaxed); }
@@ -96,7 +106,7 @@ class ExecutionContext {
   void prefault_stack() noexcept;
   void apply_pending_command();
   void wake() noexcept;
-  void sleep_until(MonoTime deadline);
+  void sleep_until(MonoTime deadline, Nanos spin);
 
   ExecutionSettings settings_;
   std::vector<Lifecycle*> members_;
@@ -116,6 +126,8 @@ class ExecutionContext {
   ReturnCode command_result_{};
   bool command_finished_ = false;
 
+  std::atomic<std::int64_t> period_ns_{0};
+  std::atomic<std::uint64_t> period_changes_{0};
   std::atomic<std::uint64_t> cycles_{0};
   std::atomic<std::uint64_t> overruns_{0};
   std::atomic<std::uint64_t> missed_{0};
