@@ -121,6 +121,8 @@ TEST_F(ConditionEventsLcm, LcmClientsGetOnlyTheStatesTheirConditionsHoldFor) {
 // pose_t.
 TEST_F(ConditionEventsLcm, CycloneDdsServerStateToAnLcmClient) {
   if (std::string(CYCLONE_PEER).empty()) GTEST_SKIP() << "the Cyclone DDS model or its test peer is not built";
+  // The peer on loopback, as polyport's Cyclone DDS model is (config/cyclonedds-loopback.xml).
+  setenv("CYCLONEDDS_URI", "file://" POLYPORT_SOURCE_DIR "/config/cyclonedds-loopback.xml", 1);
   auto client = lcm_peer("client", {"sub", kUrl, "EVENT_CONTINUOUS"});
   auto daemon = this->daemon(app("dds_app.xml"));
   auto server = peer(CYCLONE_PEER, "server", {"pub", "17", "state", "0", "5"});  // COUNT 0: until stopped
