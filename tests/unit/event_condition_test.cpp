@@ -11,7 +11,12 @@
 #include <thread>
 #include <vector>
 
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
+
 #include "inproc_model.hpp"
+#include "reload.hpp"
 #include "polyport/runtime/event_condition.hpp"
 #include "polyport/runtime/engine.hpp"
 #include "../support/engine_fixture.hpp"
@@ -307,6 +312,56 @@ TEST_F(ConditionProfiles, DescribeShowsTheCondition) {
   EXPECT_EQ(condition["fields"][0]["value"], 20.0);
   EXPECT_EQ(condition["fields"][1]["field"], "cycle");
   EXPECT_EQ(condition["fields"][1]["op"], "ge");
+}
+
+// A reload compares the whole <port_connection>: a changed condition makes the connection
+// again with it, and the rest runs on.
+TEST_F(ConditionProfiles, AChangedConditionIsMadeAgainOnReload) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("polyport-condevents-reload-" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const fs::path file = dir / "app.xml";
+  const auto write = [&](const std::string& value) {
+    std::ofstream(file) << "<?xml version=\"1.0\"?>\n<application_profile><name>reloaded</name><subcomponents>"
+                           "<subcomponent><name>battery</name><reference>" POLYPORT_TEST_DATA
+                           "/condevents/BatteryServer.xml</reference></subcomponent>"
+                           "<subcomponent><name>never</name><reference>" POLYPORT_TEST_DATA
+                           "/condevents/ConditionClient.xml</reference></subcomponent></subcomponents>"
+                           "<port_connections><port_connection port_type=\"event\">"
+                           "<source component_name=\"battery\" port_name=\"state\"/>"
+                           "<target component_name=\"never\" port_name=\"low\"/>"
+                           "<condition><field name=\"charge\" op=\"gt\" value=\""
+                        << value << "\"/></condition></port_connection></port_connections></application_profile>\n";
+  };
+  LoadOptions options{{POLYPORT_PLUGIN_DIR}};
+  options.models = &models;
+  daemon::ProfileReader read = [&](TypeRegistry& into, Diagnostics& found) {
+    return load_application_profile(file, into, options, found);
+  };
+  write("100");
+  auto loaded = read(types, diagnostics);
+  ASSERT_TRUE(loaded) << problems();
+  ApplicationProfile application = std::move(*loaded);
+  ASSERT_TRUE(engine.build(application, diagnostics)) << problems();
+  std::vector<std::string> warnings;
+  ASSERT_TRUE(engine.start(warnings));
+  ASSERT_EQ(engine.connections().size(), 1u);
+  const EventCondition* before = engine.connections().front()->condition();
+  ASSERT_NE(before, nullptr);
+  EXPECT_EQ(before->thresholds(), std::vector<double>{100.0});
+
+  write("50");
+  const Result<nlohmann::json> done = daemon::reload(engine, types, application, read, {}, warnings);
+  ASSERT_TRUE(done) << done.error().message;
+  EXPECT_EQ(done.value()["connections"]["changed"], nlohmann::json::array({"battery.state -> never.low"}));
+  ASSERT_EQ(engine.connections().size(), 1u);
+  const EventCondition* after = engine.connections().front()->condition();
+  ASSERT_NE(after, nullptr);
+  EXPECT_EQ(after->thresholds(), std::vector<double>{50.0});
+  // The new condition holds for half of the states: it fires while the application runs.
+  EXPECT_TRUE(eventually([&] { return after->counters().fired.load() > 0; }));
+  engine.stop();
+  fs::remove_all(dir);
 }
 
 }  // namespace
