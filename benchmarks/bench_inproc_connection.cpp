@@ -2,7 +2,7 @@
 // the policy's buffer or a push sink) plus DataInPort::read on the same thread, for each
 // queue policy and for 16 B, 64 B and 1 KiB samples (items_per_second: samples per second on
 // one core); and the added cost of the connection
-// policies (watchdog, rate limit, deadband) over a plain connection.
+// policies (watchdog, rate limit, deadband, an event's condition) over a plain connection.
 //
 // Two views of the same thing, both reported by Google Benchmark's JSON output:
 //  - per repetition, the mean ns of one write+read (median and p99 over 50 repetitions:
@@ -85,7 +85,7 @@ double p99(const std::vector<double>& v) {
 //  - deadband: one double field that moves by more than its threshold every sample.
 // Run with --benchmark_enable_random_interleaving=true so that the cases share the machine's
 // moods (scripts/bench.sh does).
-enum class Policy { plain, watchdog, rate_limit, deadband };
+enum class Policy { plain, watchdog, rate_limit, deadband, condition };
 
 const char* policy_name(Policy policy) {
   switch (policy) {
@@ -93,6 +93,7 @@ const char* policy_name(Policy policy) {
     case Policy::watchdog: return "watchdog";
     case Policy::rate_limit: return "rate_limit";
     case Policy::deadband: return "deadband";
+    case Policy::condition: return "condition";
   }
   return "?";
 }
@@ -120,6 +121,11 @@ void BM_ConnectionPolicy(benchmark::State& state) {
     case Policy::rate_limit: connection.set_rate_limit(Nanos{1}); break;
     case Policy::deadband:
       connection.set_deadbands({DeadbandField{0, TypeKind::float64, 0.5, "x"}});
+      break;
+    case Policy::condition:  // an event with a condition that holds for every sample
+      connection.set_condition(std::make_unique<EventCondition>(
+          std::vector<ConditionField>{{0, TypeKind::float64, ConditionOp::gt, 0.0, "level", "x"}}, EventMode::continuous,
+          true));
       break;
   }
   out.connections().add(connection);
@@ -150,7 +156,8 @@ BENCHMARK(BM_ConnectionPolicy)
     ->ArgNames({"push", "policy"})
     ->ArgsProduct({{0, 1},
                    {static_cast<int>(Policy::plain), static_cast<int>(Policy::watchdog),
-                    static_cast<int>(Policy::rate_limit), static_cast<int>(Policy::deadband)}})
+                    static_cast<int>(Policy::rate_limit), static_cast<int>(Policy::deadband),
+                    static_cast<int>(Policy::condition)}})
     ->Repetitions(50)
     ->ComputeStatistics("p99", p99)
     ->ReportAggregatesOnly(true);

@@ -255,6 +255,16 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
     for (const auto& band : c.value("deadbands", nlohmann::json::array())) {
       out << "  deadband=" << band.value("field", "") << ":" << band.value("threshold", 0.0);
     }
+    if (c.contains("condition")) {
+      const auto& k = c["condition"];
+      out << "  condition=" << k.value("mode", "") << (k.value("active", false) ? "" : "(inactive)");
+      for (const auto& f : k.value("fields", nlohmann::json::array())) {
+        out << " " << f.value("field", "") << " " << f.value("op", "") << " " << f.value("value", 0.0);
+        if (f.contains("param")) out << " (" << f["param"].get<std::string>() << ")";
+      }
+      out << " tested=" << k.value("tested", 0) << " fired=" << k.value("fired", 0)
+          << " suppressed=" << k.value("suppressed", 0) << " inactive=" << k.value("inactive", 0);
+    }
     out << "\n";
   }
   if (!graph.value("composites", nlohmann::json::array()).empty()) {

@@ -40,7 +40,11 @@ bool Loader::check_end(const Reporter& report, pugi::xml_node connection, pugi::
   if (!end_spec.promoted.empty()) name = end_spec.promoted + " (" + name + ")";
   const PortSpec& port = *resolved.port;
   const std::string kind(to_string(spec.kind));
-  if (port.kind != spec.kind) {
+  // An event with a condition tests the server's state, which a model without event ports
+  // (DDS) publishes on a data port.
+  const bool state_source = is_source && spec.kind == PortKind::event && port.kind == PortKind::data &&
+                            connection.child("condition");
+  if (port.kind != spec.kind && !state_source) {
     std::string message = name + " is " + port_noun(port) + "; this is " +
                           (spec.kind == PortKind::event ? "an " : "a ") + kind + " connection";
     if (!connection.attribute("port_type")) {
@@ -102,6 +106,7 @@ void Loader::check_connections(const Reporter& report, ApplicationProfile& app,
     const std::string target_name = spec.target.component + "." + spec.target.port;
     check_watchdog(report, app, node, spec, target_ok ? target.port : nullptr);
     check_rate_policies(report, node, spec, source_ok ? source.port : nullptr, source.component);
+    check_condition(report, node, spec, source_ok ? source.port : nullptr);
 
     if (spec.kind == PortKind::service) {
       for (const std::string_view attribute : {"policy", "depth"}) {

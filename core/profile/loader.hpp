@@ -4,6 +4,7 @@
 //   model_elements.cpp     the models' own elements, handed to their sections
 //   mapping_reader.cpp     <mapping> rules and their compilation
 //   connection_checks.cpp  connections against the ports they join
+//   condition_reader.cpp   an event connection's <condition>
 // Private to core/profile.
 #pragma once
 
@@ -158,6 +159,10 @@ const std::vector<ChildRule> kConnectionRules = {
     {"rate_limit", {"rate_limit"}, false, {"per_second"}},
     {"poll", {"poll"}, false, {"period_ms"}},
     {"deadband", {"deadband"}, false, {}},
+    {"condition", {"condition"}, false, {"mode", "active"}},
+};
+const std::vector<ChildRule> kConditionRules = {
+    {"field", {"field"}, true, {"name", "op", "value", "param"}},
 };
 const std::vector<ChildRule> kDeadbandRules = {
     {"field", {"field"}, true, {"name", "threshold"}},
@@ -378,6 +383,13 @@ class Loader {
   // are numbers of the source's type.
   void check_rate_policies(const Reporter& report, pugi::xml_node node, ConnectionSpec& spec,
                            const PortSpec* source, const Subcomponent* source_component);
+
+  // Reads an event connection's <condition> (condition_reader.cpp).
+  std::optional<ConditionSpec> read_condition(const Reporter& report, pugi::xml_node element);
+
+  // Checks a <condition> against the graph: an event connection, fields that are numbers of
+  // the source's type.
+  void check_condition(const Reporter& report, pugi::xml_node node, ConnectionSpec& spec, const PortSpec* source);
 
   // Checks a connection's watchdog against the graph: a data connection, an upstream output
   // data port, a safe value of constants that compiles for the target's type.

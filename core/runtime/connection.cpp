@@ -71,17 +71,18 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
       return;
     }
   }
-  if (!converts_ && deadbands_.empty()) {
+  if (!converts_ && deadbands_.empty() && !condition_) {
     forward(data, meta);
     return;
   }
   SampleMeta converted = meta;
   const std::byte* bytes = data;
-  // The source's flat sample: what a deadband compares and a conversion starts from.
+  // The source's flat sample: what a deadband or a condition compares and a conversion
+  // starts from.
   if (const Codec* codec = source_.codec()) {
     const CodecResult decoded = codec->decode(bytes, converted.size, decoded_.get(), flat_capacity_);
     if (!decoded.ok()) {
-      if (!converts_) {
+      if (!converts_ && !condition_) {
         forward(data, meta);  // a passthrough forwards what it cannot judge, as without a deadband
         return;
       }
@@ -95,6 +96,7 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
     counters_.dropped_filtered.fetch_add(1, std::memory_order_relaxed);
     return;
   }
+  if (condition_ && !condition_->admits(bytes)) return;  // counted by the condition
   if (!converts_) {
     forward(data, meta);  // the bytes as they came
     return;
@@ -124,24 +126,7 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
 namespace {
 
 double number_at(const std::byte* flat, const DeadbandField& field) noexcept {
-  const std::byte* at = flat + field.offset;
-  const auto get = [at](auto value) {
-    std::memcpy(&value, at, sizeof value);
-    return static_cast<double>(value);
-  };
-  switch (field.kind) {
-    case TypeKind::int8: return get(std::int8_t{});
-    case TypeKind::uint8: case TypeKind::octet: return get(std::uint8_t{});
-    case TypeKind::int16: return get(std::int16_t{});
-    case TypeKind::uint16: return get(std::uint16_t{});
-    case TypeKind::int32: return get(std::int32_t{});
-    case TypeKind::uint32: return get(std::uint32_t{});
-    case TypeKind::int64: return get(std::int64_t{});
-    case TypeKind::uint64: return get(std::uint64_t{});
-    case TypeKind::float32: return get(float{});
-    case TypeKind::float64: return get(double{});
-    default: return 0.0;
-  }
+  return flat_number(flat, field.offset, field.kind);
 }
 
 }  // namespace
@@ -250,6 +235,16 @@ void Connection::set_deadbands(std::vector<DeadbandField> fields) {
   deadbands_ = std::move(fields);
   deadband_last_.assign(deadbands_.size(), 0.0);
   deadband_now_.assign(deadbands_.size(), 0.0);
+  need_source_flat();
+}
+
+void Connection::set_condition(std::unique_ptr<EventCondition> condition) {
+  condition_ = std::move(condition);
+  need_source_flat();
+}
+
+// A deadband or a condition reads the source's flat sample even where the bytes pass through.
+void Connection::need_source_flat() {
   if (source_.codec() && !decoded_) {
     flat_capacity_ = std::max(source_.max_sample_bytes(), source_.type() ? source_.type()->size : 0u);
     decoded_ = std::make_unique<std::byte[]>(flat_capacity_);

@@ -31,6 +31,29 @@ std::string join(const std::vector<std::string>& items) {
 
 std::string type_name(const Port& port) { return port.type() ? port.type()->name : std::string(); }
 
+// An event condition as check and stats show it: its activation and fields now, and what it
+// let through.
+nlohmann::json describe_condition(const EventCondition& condition) {
+  const auto load = [](const std::atomic<std::uint64_t>& v) { return v.load(std::memory_order_relaxed); };
+  const ConditionCounters& k = condition.counters();
+  nlohmann::json j{{"mode", to_string(condition.mode())},
+                   {"active", condition.active()},
+                   {"fields", nlohmann::json::array()},
+                   {"tested", load(k.tested)},
+                   {"fired", load(k.fired)},
+                   {"suppressed", load(k.suppressed)},
+                   {"inactive", load(k.inactive)},
+                   {"activations", load(k.activations)}};
+  const std::vector<double> thresholds = condition.thresholds();
+  for (std::size_t i = 0; i < condition.fields().size(); ++i) {
+    const ConditionField& field = condition.fields()[i];
+    nlohmann::json f{{"field", field.path}, {"op", to_string(field.op)}, {"value", thresholds[i]}};
+    if (!field.param.empty()) f["param"] = field.param;
+    j["fields"].push_back(std::move(f));
+  }
+  return j;
+}
+
 // A connection's policies beyond its queue, as check and stats show them.
 void describe_policies(const Connection& c, nlohmann::json& j) {
   if (const ConnectionWatchdog* watchdog = c.watchdog()) {
@@ -43,6 +66,7 @@ void describe_policies(const Connection& c, nlohmann::json& j) {
   for (const DeadbandField& band : c.deadbands()) {
     j["deadbands"].push_back({{"field", band.path}, {"threshold", band.threshold}});
   }
+  if (const EventCondition* condition = c.condition()) j["condition"] = describe_condition(*condition);
 }
 
 }  // namespace
@@ -96,6 +120,16 @@ void Engine::wire(const ConnectionSpec& spec, Diagnostics& diagnostics) {
   if (auto limited = add_rate_policies(*connection, spec); !limited) {
     diagnostics.error(spec.where, {}, limited.error().message);
   }
+  if (spec.condition) {
+    const Type* type = connection->source().type();
+    if (type == nullptr) {
+      diagnostics.error(spec.condition->where, {}, "a condition needs a data type on " + connection->source().full_name());
+    } else if (auto condition = make_event_condition(*type, *spec.condition); !condition) {
+      diagnostics.error(spec.condition->where, {}, condition.error().message);
+    } else {
+      connection->set_condition(std::move(condition).value());
+    }
+  }
   if (diagnostics.error_count() != errors) return;  // left unpublished; the caller gives up
   connection->target().connections().add(*connection);
   connection->source().connections().add(*connection);
@@ -105,7 +139,10 @@ void Engine::wire(const ConnectionSpec& spec, Diagnostics& diagnostics) {
 Result<Connection*> Engine::connect_ports(Port& source, Port& target, std::optional<QueuePolicy> policy,
                                           std::optional<std::uint32_t> depth,
                                           std::shared_ptr<const MappingProgram> mapping, bool publish) {
-  if (source.kind() != target.kind()) {
+  // A data output may feed an event input: the server's state of an event with a condition
+  // (the profile loader allows it only there).
+  const bool state_to_event = source.kind() == PortKind::data && target.kind() == PortKind::event;
+  if (source.kind() != target.kind() && !state_to_event) {
     return make_error(source.full_name() + " is a " + std::string(to_string(source.kind())) + " port but " +
                       target.full_name() + " is a " + std::string(to_string(target.kind())) + " port");
   }

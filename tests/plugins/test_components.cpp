@@ -1,5 +1,6 @@
 // Small components that the tests load through the in-process model, like any plugin.
 #include <cstdint>
+#include <string>
 #include <string_view>
 #include <thread>
 
@@ -197,10 +198,66 @@ class Tunable final : public ComponentBase {
   std::thread::id execute_thread_;
 };
 
+// tests/data/condevents/battery.idl's cond::BatteryState in its flat layout.
+struct BatteryState {
+  double charge;
+  std::int32_t cycle;
+  char note[16];
+};
+
+// An event server's state: every cycle a new charge, 100 down to 0, then 100 again.
+class BatteryServer final : public ComponentBase {
+ public:
+  ReturnCode onExecute() override {
+    BatteryState state{};
+    state.charge = static_cast<double>(100 - cycle_ % 101);
+    state.cycle = cycle_++;
+    state_.raise(state);
+    return ReturnCode::ok;
+  }
+
+ private:
+  EventOutPort<BatteryState> state_{*this, "state"};
+  std::int32_t cycle_ = 0;
+};
+
+// An event client. With a `mode` property (single / continuous) it activates its event on its
+// first cycle with parameter level = its `level` property, and then holds the server to it:
+// an event whose charge is not below the level puts it in error. Publishes how many events
+// it took.
+class ConditionClient final : public ComponentBase {
+ public:
+  ReturnCode onExecute() override {
+    const std::string mode = property("mode");
+    const double level = property_double("level", 0.0);
+    if (!activated_ && !mode.empty()) {
+      activated_ = true;
+      const EventMode wanted = mode == "single" ? EventMode::single : EventMode::continuous;
+      if (low_.activate(wanted, {{"level", level}}) != Status::ok) return ReturnCode::error;
+      // A parameter no field names is refused and changes nothing.
+      if (low_.activate(wanted, {{"no_such_parameter", 1.0}}) != Status::error) return ReturnCode::error;
+    }
+    BatteryState event{};
+    while (low_.take(event) == Status::ok) {
+      ++events_;
+      if (!mode.empty() && !(event.charge < level)) return ReturnCode::error;
+    }
+    events_out_.write(events_);
+    return ReturnCode::ok;
+  }
+
+ private:
+  EventInPort<BatteryState> low_{*this, "low"};
+  OutPort<std::int64_t> events_out_{*this, "events"};
+  std::int64_t events_ = 0;
+  bool activated_ = false;
+};
+
 // Inside the namespace so that the class names stay unqualified ("Ticker", ...).
 POLYPORT_COMPONENTS(POLYPORT_COMPONENT(Ticker), POLYPORT_COMPONENT(Collector), POLYPORT_COMPONENT(Adder),
                     POLYPORT_COMPONENT(Caller), POLYPORT_COMPONENT(Faulty), POLYPORT_COMPONENT(WrongSize),
                     POLYPORT_COMPONENT(PoseRelay), POLYPORT_COMPONENT(PeerAdder), POLYPORT_COMPONENT(PeerCaller),
-                    POLYPORT_COMPONENT(Tunable))
+                    POLYPORT_COMPONENT(Tunable), POLYPORT_COMPONENT(BatteryServer),
+                    POLYPORT_COMPONENT(ConditionClient))
 
 }  // namespace polyport::test

@@ -13,6 +13,7 @@
 
 #include "polyport/base/diagnostics.hpp"
 #include "polyport/codecs/mapping.hpp"
+#include "polyport/profile/condition_spec.hpp"
 
 namespace polyport {
 
@@ -174,6 +175,7 @@ struct ConnectionSpec {
   // last tick (none when none came); at least twice the rate of an in-process periodic source.
   std::optional<double> poll_period_ms;
   std::vector<DeadbandSpec> deadbands;  // the <field>s of <deadband> inside <port_connection>
+  std::optional<ConditionSpec> condition;  // <condition> of an event connection
   // Set by the loader when the two ends' types differ: the compiled mapping (the spec's, or
   // by name when there is none). Null when the types are the same.
   std::shared_ptr<const MappingProgram> program;

@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <cstring>
 #include <deque>
+#include <initializer_list>
 #include <map>
 #include <memory>
 #include <string>
@@ -27,6 +28,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "polyport/runtime/event_condition.hpp"
 #include "polyport/runtime/lifecycle.hpp"
 #include "polyport/runtime/port.hpp"
 #include "polyport/runtime/service.hpp"
@@ -239,6 +241,19 @@ class EventInPort {
     event = next;
     return Status::ok;
   }
+
+  // An event with a condition (the connection's <condition>): from now on the server's state
+  // changes for which the condition holds come as events, once (single) or each time
+  // (continuous). Parameters override the thresholds of the fields that name them
+  // (param="level"); the others keep the profile's values. not_connected: no connection into
+  // this port has a condition; error: a parameter that no field names (nothing changed).
+  // Any thread; never blocks the server's writer.
+  Status activate(EventMode mode, std::initializer_list<ConditionParameter> parameters = {}) noexcept {
+    return activate_conditions(*static_cast<DataInPort*>(port_), mode,
+                               std::span<const ConditionParameter>(parameters.begin(), parameters.size()));
+  }
+  // No events until activated again.
+  Status deactivate() noexcept { return deactivate_conditions(*static_cast<DataInPort*>(port_)); }
 
  private:
   Port* port_ = nullptr;

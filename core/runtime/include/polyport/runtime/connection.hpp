@@ -15,6 +15,7 @@
 #include "polyport/codecs/codec.hpp"
 #include "polyport/runtime/histogram.hpp"
 #include "polyport/codecs/mapping.hpp"
+#include "polyport/runtime/event_condition.hpp"
 #include "polyport/runtime/port.hpp"
 #include "polyport/runtime/watchdog.hpp"
 
@@ -99,6 +100,11 @@ class Connection {
   // scratch when the source has a wire format of its own).
   void set_deadbands(std::vector<DeadbandField> fields);
   const std::vector<DeadbandField>& deadbands() const noexcept { return deadbands_; }
+  // An event with a condition (event_condition.hpp): samples go to the target only when the
+  // condition holds for them and its activation is active (allocates the decode scratch as a
+  // deadband does).
+  void set_condition(std::unique_ptr<EventCondition> condition);
+  EventCondition* condition() const noexcept { return condition_.get(); }
 
   // The timer thread's side (connection_timer.hpp). Each returns false, having done nothing,
   // when the writer has the connection at that moment: try again shortly.
@@ -179,6 +185,8 @@ class Connection {
   std::vector<double> deadband_last_;
   std::vector<double> deadband_now_;
   std::atomic<bool> deadband_primed_{false};  // cleared when a safe value goes out
+  std::unique_ptr<EventCondition> condition_;
+  void need_source_flat();
   ConnectionCounters counters_;
   LatencyHistogram latency_;
   LatencyHistogram age_;

@@ -1,0 +1,164 @@
+// Events with conditions across LCM: the server is an LCM application built with lcm-gen
+// (tests/lcm_e2e/lcm_peer pub: its pose is the server's state), the clients are LCM
+// applications too (lcm_peer sub on the event channels). polyportd tests each state on the
+// way: a continuous event gets every state for which its condition holds, a single-shot one
+// the first such state only, and one whose condition never holds gets nothing, which its
+// statistics show (tested, never fired), live through polyportctl and at the end.
+//
+// Runs in a network namespace of its own with a multicast route on loopback (needs root),
+// like tests/lcm_e2e.
+#include <fstream>
+#include <iterator>
+
+#include "../dds_peers/pose_checks.hpp"
+#include "../support/multicast_namespace.hpp"
+
+namespace polyport::test {
+namespace {
+
+constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+std::string read_file(const fs::path& file) {
+  std::ifstream in(file);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+class ConditionEventsLcm : public DaemonTest {
+ protected:
+  ConditionEventsLcm() : DaemonTest("polyport-condevents") {}
+
+  void SetUp() override {
+    DaemonTest::SetUp();
+    isolate_with_multicast_route();
+    socket_ = dir() / "admin.sock";
+  }
+  fs::path app(const std::string& name = "lcm_app.xml") const {
+    return fill_templates(POLYPORT_TEST_DATA "/condevents_lcm",
+                          {{"@URL@", kUrl}, {"@A@", "17"}, {"@SRC@", POLYPORT_SOURCE_DIR}}, name);
+  }
+  std::unique_ptr<Child> lcm_peer(const std::string& tag, std::vector<std::string> args) {
+    return peer(LCM_PEER, tag, std::move(args));
+  }
+  // `polyportctl --json stats`, parsed (discarded when it failed).
+  Json ctl_stats() {
+    const std::string tag = "ctl-" + std::to_string(++calls_);
+    int code = -1;
+    {
+      Child child(dir(), tag, {POLYPORTCTL, "--socket", socket_.string(), "--json", "stats"});
+      code = child.wait(30s);
+    }
+    if (code != 0) return Json::parse("x", nullptr, false);
+    return Json::parse(read_file(dir() / (tag + ".out")), nullptr, false);
+  }
+
+  fs::path socket_;
+  int calls_ = 0;
+};
+
+Json condition_of(const Json& stats, const std::string& name) {
+  const Json* c = connection(stats, name);
+  return c != nullptr && c->contains("condition") ? (*c)["condition"] : Json();
+}
+
+TEST_F(ConditionEventsLcm, LcmClientsGetOnlyTheStatesTheirConditionsHoldFor) {
+  auto continuous = lcm_peer("continuous", {"sub", kUrl, "EVENT_CONTINUOUS"});
+  auto single = lcm_peer("single", {"sub", kUrl, "EVENT_SINGLE"});
+  auto never = lcm_peer("never", {"sub", kUrl, "EVENT_NEVER"});
+  auto daemon = this->daemon(app(), {"--admin-socket", socket_.string()});
+  auto server = lcm_peer("server", {"pub", kUrl, "STATE", "5"});
+  // Twenty events on the continuous channel; the never-holding condition tested as often.
+  Json live;
+  ASSERT_TRUE(eventually([&] {
+    if (poses(*continuous).size() < 20) return false;
+    live = ctl_stats();
+    return !live.is_discarded() && condition_of(live, "server.state -> never.event").value("tested", 0) >= 20;
+  }, 60s)) << "continuous: " << poses(*continuous).size() << " poses\n" << live.dump(2) << daemon->errors();
+  const Json never_live = condition_of(live, "server.state -> never.event");
+  EXPECT_EQ(never_live["fired"], 0) << never_live.dump();
+  EXPECT_EQ(never_live["suppressed"], never_live["tested"]) << never_live.dump();
+  server.reset();
+
+  // continuous: x > 2, every field as published, each state once, in order.
+  const std::vector<Json> got = poses(*continuous);
+  for (const Json& pose : got) {
+    expect_pose(pose);
+    EXPECT_GT(pose["x"].get<double>(), 2.0) << pose.dump();
+  }
+  expect_increasing(got);
+  // single: one state, the first with heading >= 1 and id >= 1005 that polyport saw.
+  const std::vector<Json> once = poses(*single);
+  ASSERT_EQ(once.size(), 1u) << single->errors();
+  expect_pose(once[0]);
+  EXPECT_GE(once[0]["heading"].get<double>(), 1.0);
+  EXPECT_GE(once[0]["id"].get<int>(), 1005);
+  // never: nothing.
+  EXPECT_TRUE(poses(*never).empty());
+
+  const Json stats = stop(*daemon);
+  const Json c = condition_of(stats, "server.state -> continuous.event");
+  EXPECT_EQ(c["mode"], "continuous");
+  EXPECT_EQ(c["tested"].get<long long>(), c["fired"].get<long long>() + c["suppressed"].get<long long>()) << c.dump();
+  EXPECT_GE(c["fired"].get<long long>(), static_cast<long long>(got.size())) << c.dump();
+  EXPECT_GT(c["suppressed"].get<long long>(), 0) << c.dump();  // the states with x <= 2 (i < 11)
+  const Json* link = connection(stats, "server.state -> continuous.event");
+  ASSERT_NE(link, nullptr);
+  EXPECT_EQ((*link)["conversion"], "passthrough");  // decoded to test, the bytes forwarded as they came
+  EXPECT_EQ((*link)["delivered"], c["fired"]);
+
+  const Json s = condition_of(stats, "server.state -> single.event");
+  EXPECT_EQ(s["fired"], 1) << s.dump();
+  EXPECT_EQ(s["active"], false);
+  EXPECT_GT(s["inactive"].get<long long>(), 0) << s.dump();  // every state after it
+
+  const Json n = condition_of(stats, "server.state -> never.event");
+  EXPECT_EQ(n["fired"], 0) << n.dump();
+  EXPECT_GE(n["tested"].get<long long>(), 20);
+  EXPECT_EQ((*connection(stats, "server.state -> never.event"))["delivered"], 0);
+}
+
+// A Cyclone DDS server (idlc-generated program): DDS has no event ports, so its state is a
+// topic on a data port, which the event connection tests and maps onto the LCM client's
+// pose_t.
+TEST_F(ConditionEventsLcm, CycloneDdsServerStateToAnLcmClient) {
+  if (std::string(CYCLONE_PEER).empty()) GTEST_SKIP() << "the Cyclone DDS model or its test peer is not built";
+  // The peer on loopback, as polyport's Cyclone DDS model is (config/cyclonedds-loopback.xml).
+  setenv("CYCLONEDDS_URI", "file://" POLYPORT_SOURCE_DIR "/config/cyclonedds-loopback.xml", 1);
+  auto client = lcm_peer("client", {"sub", kUrl, "EVENT_CONTINUOUS"});
+  auto daemon = this->daemon(app("dds_app.xml"));
+  auto server = peer(CYCLONE_PEER, "server", {"pub", "17", "state", "0", "5"});  // COUNT 0: until stopped
+  ASSERT_TRUE(eventually([&] { return poses(*client).size() >= 10; }, 60s))
+      << "client: " << poses(*client).size() << " poses\n" << daemon->errors() << server->errors();
+  server.reset();
+  const std::vector<Json> got = poses(*client);
+  for (const Json& pose : got) {
+    expect_pose(pose);
+    EXPECT_GT(pose["x"].get<double>(), 2.0) << pose.dump();
+  }
+  expect_increasing(got);
+  const Json stats = stop(*daemon);
+  const Json* link = connection(stats, "server.state -> continuous.event");
+  ASSERT_NE(link, nullptr) << stats.dump(2);
+  EXPECT_EQ((*link)["dropped"], 0) << link->dump(2);
+  const Json& c = (*link)["condition"];
+  EXPECT_GE(c["fired"].get<long long>(), static_cast<long long>(got.size())) << c.dump();
+  EXPECT_EQ(c["tested"].get<long long>(), c["fired"].get<long long>() + c["suppressed"].get<long long>());
+  EXPECT_EQ((*link)["delivered"], c["fired"]);
+}
+
+// polyportd check shows each condition: mode, activation, fields.
+TEST_F(ConditionEventsLcm, CheckShowsTheConditions) {
+  const std::string tag = "check";
+  int code = -1;
+  {
+    Child child(dir(), tag, {POLYPORTD, "check", app().string()});
+    code = child.wait(30s);
+  }
+  const std::string out = read_file(dir() / (tag + ".out"));
+  EXPECT_EQ(code, 0) << out << read_file(dir() / (tag + ".err"));
+  EXPECT_NE(out.find("condition=continuous x gt 2"), std::string::npos) << out;
+  EXPECT_NE(out.find("condition=single heading ge 1 id ge 1005"), std::string::npos) << out;
+  EXPECT_NE(out.find("condition=continuous x lt -1000"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace polyport::test
