@@ -22,6 +22,14 @@ PushServer::PushServer(DataOutPort& port, PushPattern pattern, Nanos cycle, std:
 
 PushServer::~PushServer() = default;
 
+namespace {
+// A per-thread address: who holds the latest slot.
+const void* this_thread_token() noexcept {
+  thread_local const char token = 0;
+  return &token;
+}
+}  // namespace
+
 void PushServer::lock() noexcept {
   // Held by the other side for one copy (the writer) or one priming hand-over (the control
   // thread): spin briefly, then give the CPU away so a preempted holder can finish.
@@ -34,6 +42,12 @@ void PushServer::lock() noexcept {
     }
     std::this_thread::yield();
   }
+  holder_.store(this_thread_token(), std::memory_order_relaxed);
+}
+
+void PushServer::unlock() noexcept {
+  holder_.store(nullptr, std::memory_order_relaxed);
+  busy_.store(false, std::memory_order_release);
 }
 
 Status PushServer::write(const void* data, std::uint32_t size, MonoTime t_source) noexcept {
@@ -51,6 +65,11 @@ Status PushServer::write(const void* data, std::uint32_t size, MonoTime t_source
         return Status::ok;
       }
     }
+    return port_.forward(data, size, t_source);
+  }
+  if (holder_.load(std::memory_order_relaxed) == this_thread_token()) {
+    // A subscriber's sink wrote into this port again on this thread (while it held the
+    // latest slot): forward it, keep the outer sample as the latest, never wait for itself.
     return port_.forward(data, size, t_source);
   }
   lock();

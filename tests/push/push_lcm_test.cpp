@@ -3,8 +3,9 @@
 // other lcm_peer programs read.
 //  - push timed: a subscriber of every 3rd base cycle gets poses whose ids step by 3, one of
 //    each cycle gets every pose; the statistics count what each skipped;
-//  - push newest: a subscriber connected while the application runs (polyportctl connect)
-//    gets the latest pose at once, though the publisher has gone quiet.
+//  - push newest: a subscriber connected while the application runs (polyportctl connect, or
+//    a reload that adds its connection) gets the latest pose at once, though the publisher
+//    has gone quiet.
 // LCM has no late joining of its own: only subscribers on polyport's side are primed.
 //
 // Each case runs in a network namespace of its own with a multicast route on loopback (needs
@@ -133,6 +134,49 @@ TEST_F(PushLcm, ANewestSubscriberConnectedLaterGetsTheLatestPoseAtOnce) {
   EXPECT_EQ((*link)["push"]["pattern"], "newest") << link->dump(2);
   EXPECT_EQ((*link)["push"]["primed"], 1) << link->dump(2);
   EXPECT_EQ((*link)["delivered"], 1) << link->dump(2);
+}
+
+TEST_F(PushLcm, AReloadThatAddsANewestSubscriberPrimesIt) {
+  auto each = lcm_peer("each", {"sub", kUrl, "POSE_ALL"});
+  auto late = lcm_peer("late", {"sub", kUrl, "POSE_LATE"});
+  const fs::path profile = app("newest_app.xml", R"(<push pattern="newest"/>)");
+  auto daemon = this->daemon(profile, {"--admin-socket", socket_.string()});
+  ASSERT_TRUE(eventually([&] { return ctl({"hello"}).first == 0; }, 30s)) << daemon->errors();
+  auto pub = lcm_peer("pub", {"pub", kUrl, "POSE_IN", "10"});
+  ASSERT_TRUE(eventually([&] { return poses(*each).size() >= 5; }, 30s)) << daemon->errors();
+  pub->signal(SIGTERM);
+  ASSERT_EQ(pub->wait(10s), 0) << pub->errors();
+  long long last_published = -1;
+  for (const Json& j : pub->lines()) {
+    if (j.value("event", "") == "published") last_published = j["id"].get<long long>();
+  }
+  ASSERT_TRUE(eventually([&] {
+    const auto got = poses(*each);
+    return !got.empty() && got.back()["id"].get<long long>() == last_published;
+  }, 10s)) << "each got " << poses(*each).size() << " poses, the last published was " << last_published;
+
+  // The profile gains source.pose -> late.pose; the running connection stays as it is.
+  std::string text = read_file(profile);
+  const std::string end = "  </port_connections>";
+  const auto at = text.find(end);
+  ASSERT_NE(at, std::string::npos);
+  text.insert(at, "    <port_connection port_type=\"data\">\n"
+                  "      <source component_name=\"source\" port_name=\"pose\"/>\n"
+                  "      <target component_name=\"late\" port_name=\"pose\"/>\n"
+                  "    </port_connection>\n");
+  std::ofstream(profile) << text;
+  const auto [code, out] = ctl({"reload"});
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("source.pose -> late.pose"), std::string::npos) << out;
+  ASSERT_TRUE(eventually([&] { return !poses(*late).empty(); }, 10s)) << daemon->errors();
+  const std::vector<Json> primed = poses(*late);
+  ASSERT_EQ(primed.size(), 1u);
+  expect_pose(primed.front());
+  EXPECT_EQ(primed.front()["id"].get<long long>(), last_published);
+  const Json stats = stop(*daemon);
+  const Json* kept = connection(stats, "source.pose -> each.pose");
+  ASSERT_NE(kept, nullptr);
+  EXPECT_EQ((*kept)["delivered"].get<long long>(), static_cast<long long>(poses(*each).size())) << kept->dump(2);
 }
 
 }  // namespace

@@ -88,7 +88,7 @@ class PushServer final : public ConnectionSetObserver {
 
  private:
   void lock() noexcept;
-  void unlock() noexcept { busy_.store(false, std::memory_order_release); }
+  void unlock() noexcept;
   void queue_change(SubscriptionChange::Kind kind, const Connection& subscriber, std::uint32_t every) noexcept;
 
   DataOutPort& port_;
@@ -98,6 +98,7 @@ class PushServer final : public ConnectionSetObserver {
   std::uint32_t phase_ = 0;  // writer thread: writes since the last base cycle began
   std::atomic<bool> active_{true};
   std::atomic<bool> busy_{false};  // push newest: the writer, or the control thread priming
+  std::atomic<const void*> holder_{nullptr};  // the thread that holds busy_ (re-entry check)
   // Push newest: the latest sample (under busy_).
   std::unique_ptr<std::byte[]> latest_;
   std::uint32_t latest_capacity_ = 0;
