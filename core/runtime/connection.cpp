@@ -168,8 +168,9 @@ bool Connection::passes_deadbands(const std::byte* flat) noexcept {
   return passes;
 }
 
-// Writer thread. The first sample after subscribing goes, then one in every `gate`. A new
-// multiple set meanwhile takes effect from the sample in its turn (phase_ wraps under it).
+// Writer thread. One sample in every `gate` goes, starting with the first this connection
+// sees; a multiple set meanwhile takes effect where the count stands (it wraps under a
+// smaller one), so a subscriber's cycle never stretches beyond its new multiple.
 bool Connection::subscription_turn(std::uint32_t gate) noexcept {
   if (gate == kUnsubscribed) {
     counters_.skipped.fetch_add(1, std::memory_order_relaxed);
