@@ -2,7 +2,8 @@
 // the policy's buffer or a push sink) plus DataInPort::read on the same thread, for each
 // queue policy and for 16 B, 64 B and 1 KiB samples (items_per_second: samples per second on
 // one core); and the added cost of the connection
-// policies (watchdog, rate limit, deadband, an event's condition) over a plain connection.
+// policies (watchdog, rate limit, deadband, an event's condition, push newest and push timed
+// servers) over a plain connection.
 //
 // Two views of the same thing, both reported by Google Benchmark's JSON output:
 //  - per repetition, the mean ns of one write+read (median and p99 over 50 repetitions:
@@ -21,6 +22,7 @@
 #include "polyport/runtime/component.hpp"
 #include "polyport/runtime/connection.hpp"
 #include "polyport/runtime/echo_table.hpp"
+#include "polyport/runtime/push_server.hpp"
 #include "polyport/runtime/watchdog.hpp"
 
 namespace {
@@ -85,7 +87,10 @@ double p99(const std::vector<double>& v) {
 //  - deadband: one double field that moves by more than its threshold every sample.
 // Run with --benchmark_enable_random_interleaving=true so that the cases share the machine's
 // moods (scripts/bench.sh does).
-enum class Policy { plain, watchdog, rate_limit, deadband, condition };
+//  - push_newest: the source is a push newest server (keeps each sample as the latest);
+//  - push_timed: the source is a push timed server, the connection a subscription of every
+//    cycle (every sample counted on the forwarding path, none skipped).
+enum class Policy { plain, watchdog, rate_limit, deadband, condition, push_newest, push_timed };
 
 const char* policy_name(Policy policy) {
   switch (policy) {
@@ -94,6 +99,8 @@ const char* policy_name(Policy policy) {
     case Policy::rate_limit: return "rate_limit";
     case Policy::deadband: return "deadband";
     case Policy::condition: return "condition";
+    case Policy::push_newest: return "push_newest";
+    case Policy::push_timed: return "push_timed";
   }
   return "?";
 }
@@ -127,6 +134,13 @@ void BM_ConnectionPolicy(benchmark::State& state) {
           std::vector<ConditionField>{{0, TypeKind::float64, ConditionOp::gt, 0.0, "level", "x"}}, EventMode::continuous,
           true));
       break;
+    case Policy::push_newest:
+      out.set_push(std::make_unique<PushServer>(out, PushPattern::newest, Nanos{0}));
+      break;
+    case Policy::push_timed:
+      out.set_push(std::make_unique<PushServer>(out, PushPattern::timed, Nanos{10'000'000}));
+      connection.set_subscription(1);
+      break;
   }
   out.connections().add(connection);
   in.connections().add(connection);
@@ -157,7 +171,8 @@ BENCHMARK(BM_ConnectionPolicy)
     ->ArgsProduct({{0, 1},
                    {static_cast<int>(Policy::plain), static_cast<int>(Policy::watchdog),
                     static_cast<int>(Policy::rate_limit), static_cast<int>(Policy::deadband),
-                    static_cast<int>(Policy::condition)}})
+                    static_cast<int>(Policy::condition), static_cast<int>(Policy::push_newest),
+                    static_cast<int>(Policy::push_timed)}})
     ->Repetitions(50)
     ->ComputeStatistics("p99", p99)
     ->ReportAggregatesOnly(true);

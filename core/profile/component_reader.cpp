@@ -358,6 +358,7 @@ bool Loader::read_data_port(const Reporter& report, pugi::xml_node node, const C
   }
 
   read_model_port(report, fields, port, component);
+  if (const pugi::xml_node push = fields.one("push")) read_push(report, push, port, component.profile);
 
   const pugi::xml_node policy = fields.one("policy");
   if (policy) {

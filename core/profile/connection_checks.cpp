@@ -107,6 +107,7 @@ void Loader::check_connections(const Reporter& report, ApplicationProfile& app,
     check_watchdog(report, app, node, spec, target_ok ? target.port : nullptr);
     check_rate_policies(report, node, spec, source_ok ? source.port : nullptr, source.component);
     check_condition(report, node, spec, source_ok ? source.port : nullptr);
+    check_subscription(report, node, spec, source_ok ? source.port : nullptr);
 
     if (spec.kind == PortKind::service) {
       for (const std::string_view attribute : {"policy", "depth"}) {

@@ -160,6 +160,7 @@ const std::vector<ChildRule> kConnectionRules = {
     {"poll", {"poll"}, false, {"period_ms"}},
     {"deadband", {"deadband"}, false, {}},
     {"condition", {"condition"}, false, {"mode", "active"}},
+    {"subscription", {"subscription"}, false, {"every"}},
 };
 const std::vector<ChildRule> kConditionRules = {
     {"field", {"field"}, true, {"name", "op", "value", "param"}},
@@ -227,6 +228,7 @@ const std::vector<ChildRule> kDataPortRules = {
     {"policy", {"queueing_policy", "policy"}},
     {"depth", {"queue_size", "queueing_size"}},
     {"policy_param", {"policy_param"}, true, {"name"}},
+    {"push", {"push"}, false, {"pattern", "cycle_ms"}},
 };
 const std::vector<ChildRule> kServicePortRules = {
     {"name", {"name"}},
@@ -395,6 +397,18 @@ class Loader {
   // data port, a safe value of constants that compiles for the target's type.
   void check_watchdog(const Reporter& report, const ApplicationProfile& app, pugi::xml_node node,
                       ConnectionSpec& spec, const PortSpec* target);
+
+  // -- push newest / push timed (push_reader.cpp) ------------------------------------------
+
+  // Reads a data port's <push>: its pattern and base cycle, checked against the period of an
+  // in-process periodic component.
+  void read_push(const Reporter& report, pugi::xml_node element, PortSpec& port, const ComponentProfile& profile);
+
+  // Reads a connection's <subscription every>.
+  static void read_subscription(const Reporter& report, const Children& children, ConnectionSpec& spec);
+
+  // Checks that a subscription's source is a push timed port.
+  void check_subscription(const Reporter& report, pugi::xml_node node, ConnectionSpec& spec, const PortSpec* source);
 
   // -- component profiles ----------------------------------------------------------------
 

@@ -202,6 +202,7 @@ void Loader::read_connections(const Reporter& report, pugi::xml_node element, Ap
     if (const auto watchdog = ends.one("watchdog")) connection.watchdog = read_watchdog(report, watchdog);
     read_rate_policies(report, ends, connection);
     if (const auto condition = ends.one("condition")) connection.condition = read_condition(report, condition);
+    read_subscription(report, ends, connection);
     app.connections.push_back(std::move(connection));
     nodes.push_back(node);
     mapping_readable_.push_back(mapping_readable);

@@ -58,6 +58,7 @@ std::string Connection::conversion() const {
 
 void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept {
   counters_.received.fetch_add(1, std::memory_order_relaxed);
+  if (const std::uint32_t gate = gate_.load(std::memory_order_relaxed); gate != 0 && !subscription_turn(gate)) return;
   if (watchdog_) {
     // The source wrote this sample now; what can make it unusable is a silent upstream or
     // its own age.
@@ -150,6 +151,26 @@ bool Connection::passes_deadbands(const std::byte* flat) noexcept {
     deadband_primed_.store(true, std::memory_order_relaxed);
   }
   return passes;
+}
+
+// Writer thread. One sample in every `gate` goes, starting with the first this connection
+// sees; a multiple set meanwhile takes effect where the count stands (it wraps under a
+// smaller one), so a subscriber's cycle never stretches beyond its new multiple.
+bool Connection::subscription_turn(std::uint32_t gate) noexcept {
+  if (gate == kUnsubscribed) {
+    counters_.skipped.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  if (phase_ >= gate) phase_ = 0;
+  const bool turn = phase_ == 0;
+  phase_ = phase_ + 1 == gate ? 0 : phase_ + 1;
+  if (!turn) counters_.skipped.fetch_add(1, std::memory_order_relaxed);
+  return turn;
+}
+
+void Connection::set_subscription(std::uint32_t every) noexcept {
+  every_.store(every, std::memory_order_relaxed);
+  gate_.store(every, std::memory_order_relaxed);
 }
 
 void Connection::forward(const std::byte* data, const SampleMeta& meta) noexcept {

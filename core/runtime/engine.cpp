@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "polyport/runtime/component_api.hpp"
+#include "polyport/runtime/push_server.hpp"
 
 namespace polyport {
 
@@ -67,6 +68,21 @@ void describe_policies(const Connection& c, nlohmann::json& j) {
     j["deadbands"].push_back({{"field", band.path}, {"threshold", band.threshold}});
   }
   if (const EventCondition* condition = c.condition()) j["condition"] = describe_condition(*condition);
+  if (const PushServer* push = c.source().push()) {
+    nlohmann::json& p = j["push"];
+    p["pattern"] = to_string(push->pattern());
+    if (push->pattern() == PushPattern::timed) p["cycle_ns"] = push->cycle().count;
+    p["active"] = push->active();
+    p["primed"] = push->counters().primed.load(std::memory_order_relaxed);
+    p["not_active_writes"] = push->counters().not_active.load(std::memory_order_relaxed);
+  }
+  if (const std::uint32_t every = c.subscription_every(); every != 0) {
+    nlohmann::json& s = j["subscription"];
+    s["every"] = every;
+    if (const PushServer* push = c.source().push()) s["cycle_ns"] = push->cycle().count * every;
+    s["subscribed"] = c.subscribed();
+    s["skipped"] = c.counters().skipped.load(std::memory_order_relaxed);
+  }
 }
 
 }  // namespace
@@ -88,6 +104,10 @@ bool Engine::build(const ApplicationProfile& profile, Diagnostics& diagnostics) 
     }
     std::optional<Proxy> proxy = model->create_proxy(sub, context, diagnostics);
     if (!proxy) continue;
+    if (auto pushed = attach_push_servers(sub, *proxy->adaptor); !pushed) {
+      diagnostics.error(sub.where, {}, pushed.error().message);
+      continue;
+    }
     nodes_.push_back(Node{sub.name, sub.profile.model, std::move(*proxy)});
   }
   if (diagnostics.has_errors()) return false;
@@ -117,6 +137,7 @@ void Engine::wire(const ConnectionSpec& spec, Diagnostics& diagnostics) {
     auto watched = add_watchdog(*connection, *spec.watchdog);
     if (!watched) diagnostics.error(spec.watchdog->where, {}, watched.error().message);
   }
+  if (spec.subscription_every) connection->set_subscription(*spec.subscription_every);
   if (auto limited = add_rate_policies(*connection, spec); !limited) {
     diagnostics.error(spec.where, {}, limited.error().message);
   }
@@ -376,6 +397,12 @@ Result<void> Engine::apply(const Change& change, std::vector<std::string>& warni
       continue;
     }
     std::optional<Proxy> proxy = model->create_proxy(*sub, context, diagnostics);
+    if (proxy) {
+      if (auto pushed = attach_push_servers(*sub, *proxy->adaptor); !pushed) {
+        diagnostics.error(sub->where, {}, pushed.error().message);
+        continue;
+      }
+    }
     if (proxy) staged_.push_back(Node{sub->name, sub->profile.model, std::move(*proxy)});
   }
   const auto failed = [&diagnostics](std::string_view what) {
@@ -619,6 +646,10 @@ void Engine::describe(nlohmann::json& out) const {
                        {"kind", to_string(port->kind())},
                        {"direction", to_string(port->direction())}};
       if (port->type()) p["type"] = port->type()->name;
+      if (auto* writer = dynamic_cast<const DataOutPort*>(port.get()); writer != nullptr && writer->push() != nullptr) {
+        p["push"] = to_string(writer->push()->pattern());
+        if (writer->push()->pattern() == PushPattern::timed) p["push_cycle_ns"] = writer->push()->cycle().count;
+      }
       if (auto* in = dynamic_cast<const DataInPort*>(port.get())) {
         p["policy"] = to_string(in->policy());
         if (in->policy() != QueuePolicy::data) p["depth"] = in->depth();

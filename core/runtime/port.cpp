@@ -6,6 +6,7 @@
 
 #include "polyport/runtime/component.hpp"
 #include "polyport/runtime/connection.hpp"
+#include "polyport/runtime/push_server.hpp"
 
 namespace polyport {
 
@@ -30,20 +31,36 @@ void ConnectionSet::publish(const std::vector<Connection*>& items) {
 void ConnectionSet::add(Connection& connection) {
   std::vector<Connection*> items(current().begin(), current().end());
   items.push_back(&connection);
+  if (observer_) observer_->adding(connection);
   publish(items);
+  if (observer_) observer_->added(connection);
 }
 
 void ConnectionSet::remove(Connection& connection) {
   std::vector<Connection*> items(current().begin(), current().end());
+  const std::size_t before = items.size();
   items.erase(std::remove(items.begin(), items.end(), &connection), items.end());
   publish(items);
+  if (observer_ && items.size() != before) observer_->removed(connection);
 }
 
 DataOutPort::DataOutPort(Component& owner, std::string name, PortKind kind, const Type* type,
                          std::uint32_t max_sample_bytes)
     : Port(owner, std::move(name), kind, PortDirection::output, type), max_sample_bytes_(max_sample_bytes) {}
 
+DataOutPort::~DataOutPort() = default;
+
+void DataOutPort::set_push(std::unique_ptr<PushServer> push) {
+  push_ = std::move(push);
+  connections_.set_observer(push_.get());
+}
+
 Status DataOutPort::write(const void* data, std::uint32_t size, MonoTime t_source) noexcept {
+  if (push_) return push_->write(data, size, t_source);
+  return forward(data, size, t_source);
+}
+
+Status DataOutPort::forward(const void* data, std::uint32_t size, MonoTime t_source) noexcept {
   written_.fetch_add(1, std::memory_order_relaxed);
   const MonoTime now = mono_now();
   last_write_.store(now.ns, std::memory_order_relaxed);
@@ -86,6 +103,12 @@ Status DataInPort::read(void* dst, std::uint32_t capacity, SampleMeta* meta) noe
         return Status::bad_size;
       case PopResult::no_data:
         break;
+    }
+  }
+  // A stopped push server's subscribers are told so once they have read what came before.
+  for (const Connection* connection : list) {
+    if (const PushServer* push = connection->source().push(); push != nullptr && !push->active()) {
+      return Status::not_active;
     }
   }
   // With several `data` connections, old_data leaves the value of the last one with data.

@@ -27,12 +27,23 @@ enum class QueuePolicy : std::uint8_t { data, buffer, circular };
 enum class ExecutionType : std::uint8_t { periodic, periodic_exclusive, aperiodic, passive };
 enum class SchedPolicy : std::uint8_t { other, fifo, rr };
 enum class InitialState : std::uint8_t { inactive, active };
+enum class PushPattern : std::uint8_t { newest, timed };
 
 struct OperationSpec {
   std::string name;
   std::string request_type;  // empty: no request payload
   std::string reply_type;    // empty: no reply payload
   bool oneway = false;       // `send`: no reply at all
+  SourceLocation where;
+};
+
+// SmartSoft's push patterns on an output data port (<push pattern cycle_ms> in its
+// <data_port>): `newest` keeps the latest sample for subscribers that come later; `timed`
+// publishes once per base cycle, and each subscribing connection takes every Nth
+// (<subscription every> in its <port_connection>).
+struct PushSpec {
+  PushPattern pattern = PushPattern::newest;
+  double cycle_ms = 0.0;  // timed: the base cycle
   SourceLocation where;
 };
 
@@ -45,6 +56,7 @@ struct PortSpec {
   std::vector<OperationSpec> operations;  // service ports
   std::optional<QueuePolicy> policy;   // input data/event ports: reading-side policy
   std::optional<std::uint32_t> depth;  // buffer/circular depth
+  std::optional<PushSpec> push;        // output data ports: <push>
   SourceLocation where;
 };
 
@@ -176,6 +188,8 @@ struct ConnectionSpec {
   std::optional<double> poll_period_ms;
   std::vector<DeadbandSpec> deadbands;  // the <field>s of <deadband> inside <port_connection>
   std::optional<ConditionSpec> condition;  // <condition> of an event connection
+  // <subscription every>: a subscriber of a push timed port takes every Nth of its cycles.
+  std::optional<std::uint32_t> subscription_every;
   // Set by the loader when the two ends' types differ: the compiled mapping (the spec's, or
   // by name when there is none). Null when the types are the same.
   std::shared_ptr<const MappingProgram> program;
@@ -221,5 +235,6 @@ std::string_view to_string(PortKind kind) noexcept;
 std::string_view to_string(PortDirection direction) noexcept;
 std::string_view to_string(QueuePolicy policy) noexcept;
 std::string_view to_string(ExecutionType type) noexcept;
+std::string_view to_string(PushPattern pattern) noexcept;
 
 }  // namespace polyport

@@ -37,6 +37,8 @@ struct ConnectionCounters {
   std::atomic<std::uint64_t> dropped_stale{0};        // older than the watchdog's max_age (replaced)
   std::atomic<std::uint64_t> dropped_filtered{0};     // within every deadband: nothing moved enough
   std::atomic<std::uint64_t> dropped_rate_limited{0}; // held for the rate limit, then replaced by a newer one
+  // Push timed: not this subscriber's cycle, or it had unsubscribed. Not a drop: it did not ask.
+  std::atomic<std::uint64_t> skipped{0};
 
   std::uint64_t dropped() const noexcept {
     return dropped_queue_full.load(std::memory_order_relaxed) +
@@ -105,6 +107,13 @@ class Connection {
   // deadband does).
   void set_condition(std::unique_ptr<EventCondition> condition);
   EventCondition* condition() const noexcept { return condition_.get(); }
+  // Push timed (push_server.hpp): the connection takes the first of every `every` samples of
+  // its source (0: every sample, no subscription). A client may change it while samples flow
+  // (subscribe / unsubscribe on its input port); unsubscribed, it takes none.
+  void set_subscription(std::uint32_t every) noexcept;
+  void unsubscribe() noexcept { gate_.store(kUnsubscribed, std::memory_order_relaxed); }
+  std::uint32_t subscription_every() const noexcept { return every_.load(std::memory_order_relaxed); }
+  bool subscribed() const noexcept { return gate_.load(std::memory_order_relaxed) != kUnsubscribed; }
 
   // The timer thread's side (connection_timer.hpp). Each returns false, having done nothing,
   // when the writer has the connection at that moment: try again shortly.
@@ -144,6 +153,7 @@ class Connection {
   void safe_value_sent() noexcept;
   void hand_over_limited(const std::byte* data, const SampleMeta& meta) noexcept;
   bool passes_deadbands(const std::byte* flat) noexcept;
+  bool subscription_turn(std::uint32_t gate) noexcept;
   Status to_sink(const std::byte* data, const SampleMeta& meta) noexcept;
   // The writer's and the timer thread's turns at the target, when both can reach it (a
   // watchdog on a push-mode target, a rate limit): the writer waits only while the timer
@@ -187,6 +197,12 @@ class Connection {
   std::atomic<bool> deadband_primed_{false};  // cleared when a safe value goes out
   std::unique_ptr<EventCondition> condition_;
   void need_source_flat();
+  // Push timed: gate_ is the multiple in force (0: none, kUnsubscribed: none taken), every_
+  // the one subscribed to; phase_ counts the source's samples (writer thread).
+  static constexpr std::uint32_t kUnsubscribed = UINT32_MAX;
+  std::atomic<std::uint32_t> gate_{0};
+  std::atomic<std::uint32_t> every_{0};
+  std::uint32_t phase_ = 0;
   ConnectionCounters counters_;
   LatencyHistogram latency_;
   LatencyHistogram age_;

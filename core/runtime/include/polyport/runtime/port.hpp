@@ -63,6 +63,16 @@ class Port {
   const Codec* codec_ = nullptr;
 };
 
+// Told when a port's connection list changes (control thread): a push server (push_server.hpp)
+// primes a new subscriber between adding() and added(), while the list is published.
+class ConnectionSetObserver {
+ public:
+  virtual ~ConnectionSetObserver() = default;
+  virtual void adding(Connection& connection) noexcept = 0;
+  virtual void added(Connection& connection) noexcept = 0;
+  virtual void removed(Connection& connection) noexcept = 0;
+};
+
 // The connections of one port: an immutable list, replaced whole when the wiring changes.
 // Writers and readers load the current list without a lock; the control thread publishes
 // a new one. Old lists stay alive until the port dies, so a reader never sees freed memory.
@@ -82,22 +92,33 @@ class ConnectionSet {
   // Control thread only.
   void add(Connection& connection);
   void remove(Connection& connection);
+  void set_observer(ConnectionSetObserver* observer) noexcept { observer_ = observer; }
 
  private:
   void publish(const std::vector<Connection*>& items);
 
   std::atomic<const List*> current_{nullptr};
   std::vector<std::unique_ptr<List>> retained_;
+  ConnectionSetObserver* observer_ = nullptr;
 };
+
+class PushServer;
 
 class DataOutPort final : public Port {
  public:
   DataOutPort(Component& owner, std::string name, PortKind kind, const Type* type,
               std::uint32_t max_sample_bytes);
+  ~DataOutPort() override;
 
   // Forwards one sample to every connection. Returns not_connected when there is none
-  // (the sample is counted and dropped). Safe to call from one thread at a time.
+  // (the sample is counted and dropped). Safe to call from one thread at a time. A push
+  // port goes through its server first (not_active while it is stopped).
   Status write(const void* data, std::uint32_t size, MonoTime t_source = {}) noexcept;
+  // write() without the push server's part: the push server's own way out.
+  Status forward(const void* data, std::uint32_t size, MonoTime t_source) noexcept;
+  // Push newest / push timed (push_server.hpp); null for a plain port. Set before wiring.
+  PushServer* push() const noexcept { return push_.get(); }
+  void set_push(std::unique_ptr<PushServer> push);
 
   std::uint32_t max_sample_bytes() const noexcept { return max_sample_bytes_; }
   std::uint64_t written() const noexcept { return written_.load(std::memory_order_relaxed); }
@@ -112,6 +133,7 @@ class DataOutPort final : public Port {
   std::atomic<std::uint64_t> written_{0};
   std::atomic<std::uint64_t> unconnected_{0};
   std::atomic<std::int64_t> last_write_{0};
+  std::unique_ptr<PushServer> push_;
 };
 
 // Where a push-mode input port delivers, on the writer's thread.
