@@ -99,10 +99,12 @@ void Loader::read_subscription(const Reporter& report, const Children& children,
   }
   const std::string text(trim(every.value()));
   const auto value = parse_integer<std::uint32_t>(text);
-  if (!value || *value == 0) {
+  // A million cycles is beyond any use (at 1 ms, one sample in 17 minutes); the bound keeps a
+  // typo from loading as a subscription that never delivers.
+  if (!value || *value == 0 || *value > 1'000'000) {
     report.error_attribute(subscription, "every",
                            "bad every " + in_quotes(text) +
-                               ": expected a whole number of the server's base cycles, from 1 to 4294967295");
+                               ": expected a whole number of the server's base cycles, from 1 to 1000000");
     return;
   }
   spec.subscription_every = *value;

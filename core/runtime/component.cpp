@@ -9,6 +9,7 @@
 
 #include "polyport/runtime/component_api.hpp"
 #include "polyport/runtime/execution_context.hpp"
+#include "polyport/runtime/push_server.hpp"
 
 namespace polyport {
 
@@ -79,6 +80,14 @@ ReturnCode ComponentBase::request_period(double seconds) noexcept {
   if (!std::isfinite(seconds) || seconds * 1e9 < static_cast<double>(ExecutionContext::kMinPeriod.count) ||
       seconds > 3600.0) {
     return ReturnCode::bad_parameter;
+  }
+  // A push timed port's base cycle is a count of this component's periods (fixed at load):
+  // another period would change every subscriber's cycle behind the profile's back.
+  for (const PortDeclaration& declaration : declarations_) {
+    if (declaration.kind != PortKind::data || declaration.direction != PortDirection::output) continue;
+    if (declaration.bound == nullptr || *declaration.bound == nullptr) continue;
+    const PushServer* push = static_cast<const DataOutPort*>(*declaration.bound)->push();
+    if (push != nullptr && push->pattern() == PushPattern::timed) return ReturnCode::unsupported;
   }
   return context_->set_period(Nanos{std::llround(seconds * 1e9)}) ? ReturnCode::ok : ReturnCode::bad_parameter;
 }

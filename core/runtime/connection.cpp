@@ -169,6 +169,8 @@ bool Connection::subscription_turn(std::uint32_t gate) noexcept {
 }
 
 void Connection::set_subscription(std::uint32_t every) noexcept {
+  // UINT32_MAX is the gate's "unsubscribed" mark: a multiple that large is one short of it.
+  if (every == kUnsubscribed) every = kUnsubscribed - 1;
   every_.store(every, std::memory_order_relaxed);
   gate_.store(every, std::memory_order_relaxed);
 }

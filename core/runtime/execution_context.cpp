@@ -34,6 +34,10 @@ ExecutionContext::ExecutionContext(ExecutionSettings settings) : settings_(std::
 
 bool ExecutionContext::set_period(Nanos period) noexcept {
   if (period < kMinPeriod) return false;
+  // A real-time thread that never sleeps starves every ordinary thread of its CPU: a run-time
+  // change (which a peer may ask for, e.g. through a data port) keeps a sleep in each period.
+  if (settings_.policy != SchedPolicy::other && period < kMinRealTimePeriod) return false;
+  if (settings_.spin.count > 0 && period.count < 2 * settings_.spin.count) return false;
   period_ns_.store(period.count, std::memory_order_relaxed);
   period_changes_.fetch_add(1, std::memory_order_relaxed);
   return true;

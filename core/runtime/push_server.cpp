@@ -2,10 +2,13 @@
 // and which thread runs what.
 #include "polyport/runtime/push_server.hpp"
 
+#include <linux/futex.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <thread>
 
 #include "polyport/runtime/component.hpp"
 #include "polyport/runtime/connection.hpp"
@@ -31,23 +34,33 @@ const void* this_thread_token() noexcept {
 }  // namespace
 
 void PushServer::lock() noexcept {
-  // Held by the other side for one copy (the writer) or one priming hand-over (the control
-  // thread): spin briefly, then give the CPU away so a preempted holder can finish.
-  for (int spins = 0; busy_.exchange(true, std::memory_order_acquire); ++spins) {
-    if (spins < 256) {
-#if defined(__x86_64__) || defined(__i386__)
-      __builtin_ia32_pause();
-#endif
-      continue;
+  // Held by the other side for one copy and forward (the writer) or one priming hand-over (the
+  // control thread): spin briefly, then sleep on the word until the holder lets go, so that a
+  // preempted holder gets the CPU even from a real-time writer (sched_yield would not give it
+  // to a thread of lower priority). Uncontended, one compare-exchange.
+  std::uint32_t expected = 0;
+  for (int spins = 0; spins < 256; ++spins) {
+    expected = 0;
+    if (busy_.compare_exchange_weak(expected, 1, std::memory_order_acquire, std::memory_order_relaxed)) {
+      holder_.store(this_thread_token(), std::memory_order_relaxed);
+      return;
     }
-    std::this_thread::yield();
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#endif
+  }
+  // Marked 2 (a sleeper) while anyone holds it; taken as 2 too, since other sleepers may remain.
+  while (busy_.exchange(2, std::memory_order_acquire) != 0) {
+    syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(&busy_), FUTEX_WAIT_PRIVATE, 2U, nullptr, nullptr, 0);
   }
   holder_.store(this_thread_token(), std::memory_order_relaxed);
 }
 
 void PushServer::unlock() noexcept {
   holder_.store(nullptr, std::memory_order_relaxed);
-  busy_.store(false, std::memory_order_release);
+  if (busy_.exchange(0, std::memory_order_release) == 2) {
+    syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(&busy_), FUTEX_WAKE_PRIVATE, 1, nullptr, nullptr, 0);
+  }
 }
 
 Status PushServer::write(const void* data, std::uint32_t size, MonoTime t_source) noexcept {

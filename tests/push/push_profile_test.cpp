@@ -59,7 +59,7 @@ TEST_F(PushProfiles, APushTimedSubscriberWithAnInvalidCycleIsALoadError) {
   EXPECT_FALSE(load("bad_subscriptions_app.xml").has_value());
   const std::string file = "bad_subscriptions_app.xml:";
   const std::string connection = "/application_profile/port_connections/port_connection";
-  const std::string expected = ": expected a whole number of the server's base cycles, from 1 to 4294967295";
+  const std::string expected = ": expected a whole number of the server's base cycles, from 1 to 1000000";
   const std::string not_timed = " is not a push timed port: a subscription takes every Nth base cycle of an output "
                                 "data port with <push pattern=\"timed\" cycle_ms=\"...\"/>";
   EXPECT_EQ(messages(), (std::vector<std::string>{
@@ -68,6 +68,7 @@ TEST_F(PushProfiles, APushTimedSubscriberWithAnInvalidCycleIsALoadError) {
       file + "18:28: " + connection + "[2]/subscription/@every: bad every '2.5'" + expected,
       file + "33:7: " + connection + "[5]/subscription: missing attribute 'every' (this subscriber takes every Nth "
       "cycle of the server)",
+      file + "38:28: " + connection + "[6]/subscription/@every: bad every '4294967295'" + expected,
       // Checking against the ports: a plain port, a push newest port.
       file + "23:7: " + connection + "[3]/subscription: server.plain" + not_timed,
       file + "28:7: " + connection + "[4]/subscription: server.newest" + not_timed,

@@ -3,12 +3,17 @@
 // changes as the server's component sees them, and the client's subscribe / unsubscribe.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "polyport/runtime/component.hpp"
 #include "polyport/runtime/connection.hpp"
+#include "polyport/runtime/execution_context.hpp"
+#include "polyport/runtime/lifecycle.hpp"
 #include "polyport/runtime/push_ports.hpp"
 #include "polyport/runtime/push_server.hpp"
 
@@ -232,6 +237,84 @@ TEST(PushTimed, AClientSubscribesAndUnsubscribesOnItsInputPort) {
   EXPECT_FALSE(server.out.active());
   EXPECT_EQ(server.out.put(6), Status::not_active);
   EXPECT_EQ(client.in.get_update(v), Status::not_active);
+}
+
+// Subscribers connected while the writer writes as fast as it can: each gets the latest value
+// at once and then every later one, in order, none twice and none missed (the priming and the
+// writer's forwarding never interleave on a connection).
+TEST(PushNewest, SubscribersConnectedWhileTheWriterWritesMissNothingAndGetNothingTwice) {
+  Server s(PushPattern::newest);
+  constexpr int kSubscribers = 20;
+  constexpr Value kStretch = 3'000;  // writes between two subscribers
+  constexpr Value kWrites = (kSubscribers + 1) * kStretch;
+  constexpr std::uint32_t kDepth = 1U << 16;  // holds every sample a subscriber can get
+  std::atomic<Value> written{0};
+  std::atomic<int> connected{0};
+  // The writer never runs more than one stretch ahead of the subscribers: the i-th connects
+  // while the writer is within its i-th stretch (or waits at its end).
+  std::thread writer([&] {
+    for (Value v = 1; v <= kWrites; ++v) {
+      if (v % kStretch == 0) {
+        while (connected.load(std::memory_order_acquire) < static_cast<int>(std::min<Value>(v / kStretch, kSubscribers))) {
+          std::this_thread::yield();
+        }
+      }
+      s.write(v);
+      written.store(v, std::memory_order_release);
+    }
+  });
+  std::vector<DataInPort*> subscribers;
+  for (int i = 0; i < kSubscribers; ++i) {
+    while (written.load(std::memory_order_acquire) <= static_cast<Value>(i) * kStretch) std::this_thread::yield();
+    DataInPort& in = s.b.add_port<DataInPort>("late" + std::to_string(i), PortKind::data, nullptr, kBytes,
+                                              QueuePolicy::buffer, kDepth);
+    s.connections.push_back(std::make_unique<Connection>(s.out, in, QueuePolicy::buffer, kDepth));
+    in.connections().add(*s.connections.back());
+    s.out.connections().add(*s.connections.back());
+    subscribers.push_back(&in);
+    connected.store(i + 1, std::memory_order_release);
+  }
+  writer.join();
+  for (DataInPort* in : subscribers) {
+    const std::vector<Value> got = drain(*in);
+    ASSERT_FALSE(got.empty()) << in->name();
+    EXPECT_EQ(got.back(), kWrites) << in->name();
+    for (std::size_t i = 1; i < got.size(); ++i) {
+      ASSERT_EQ(got[i], got[i - 1] + 1) << in->name() << " at " << i;
+    }
+  }
+}
+
+// A multiple as large as the counter goes still subscribes (it is not taken for the
+// "unsubscribed" mark), and a push timed server's component keeps its period: its base
+// cycle is counted in periods, so another period would change every subscriber's cycle.
+TEST(PushTimed, TheLargestMultipleSubscribesAndTheServersPeriodIsKept) {
+  Server s(PushPattern::timed, Nanos{10'000'000});
+  Client client;
+  DataInPort& in = s.b.add_port<DataInPort>("in", PortKind::data, nullptr, kBytes, QueuePolicy::circular, 8);
+  *client.port_declarations().front().bound = &in;
+  s.connect(in, QueuePolicy::circular);
+  ASSERT_EQ(client.in.subscribe(UINT32_MAX), Status::ok);
+  EXPECT_TRUE(s.connections[0]->subscribed());
+  s.write(1);
+  s.write(2);
+  Value v = 0;
+  EXPECT_EQ(client.in.get_update(v), Status::ok);
+  EXPECT_EQ(v, 1u);
+  EXPECT_EQ(client.in.get_update(v), Status::no_data);  // 2 was skipped
+
+  ServerComponent server;
+  *server.port_declarations().front().bound = &s.out;
+  server.set_instance("A", {}, 0.01);
+  Lifecycle lifecycle(server);
+  ExecutionSettings settings;
+  settings.name = "push-server";
+  settings.period = Nanos{10'000'000};
+  ExecutionContext context(settings);
+  context.add(lifecycle);
+  EXPECT_EQ(server.request_period(0.02), ReturnCode::unsupported);
+  EXPECT_EQ(context.period().count, 10'000'000);
+  EXPECT_EQ(context.period_changes(), 0u);
 }
 
 }  // namespace

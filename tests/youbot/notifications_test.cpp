@@ -200,6 +200,33 @@ TEST(PeriodChange, BadPeriodsAreRefusedAndChangeNothing) {
   EXPECT_DOUBLE_EQ(component.period_seconds(), 0.02);
 }
 
+// A run-time change keeps a sleep in every period: not under twice the spin tail, and a
+// real-time context not under 100 us (the thread would otherwise spin or overrun at real-time
+// priority forever).
+TEST(PeriodChange, AChangeThatWouldLeaveNoSleepIsRefused) {
+  ExecutionSettings spinning = settings_of("spin", Nanos{1'000'000});
+  spinning.spin = Nanos{300'000};
+  ExecutionContext with_spin(spinning);
+  EXPECT_FALSE(with_spin.set_period(Nanos{599'999}));
+  EXPECT_FALSE(with_spin.set_period(Nanos{300'000}));
+  EXPECT_EQ(with_spin.period().count, 1'000'000);
+  EXPECT_TRUE(with_spin.set_period(Nanos{600'000}));
+  EXPECT_EQ(with_spin.period().count, 600'000);
+
+  ExecutionSettings fifo = settings_of("fifo", Nanos{1'000'000});
+  fifo.policy = SchedPolicy::fifo;
+  fifo.priority = 10;
+  ExecutionContext real_time(fifo);
+  EXPECT_FALSE(real_time.set_period(Nanos{99'999}));
+  EXPECT_FALSE(real_time.set_period(ExecutionContext::kMinPeriod));
+  EXPECT_EQ(real_time.period_changes(), 0u);
+  EXPECT_TRUE(real_time.set_period(Nanos{100'000}));
+  EXPECT_EQ(real_time.period().count, 100'000);
+
+  ExecutionContext ordinary(settings_of("plain", Nanos{1'000'000}));  // no spin, SCHED_OTHER
+  EXPECT_TRUE(ordinary.set_period(Nanos{50'000}));
+}
+
 TEST(PeriodChange, APassiveComponentHasNoPeriodToChange) {
   Quiet component;
   component.set_instance("P", {}, 0.0);

@@ -116,12 +116,15 @@ class ComponentBase {
   // Asks the execution context running this component for another period (seconds), from
   // the next cycle on; any thread. A context is shared by the components with the same
   // execution settings, unless the profile says periodic-exclusive: the change applies to
-  // all of them. bad_parameter below 1 us (or not finite), unsupported when passive.
+  // all of them. bad_parameter below 1 us (or not finite), below 100 us for a real-time
+  // context, under twice the context's spin tail; unsupported when passive or when the
+  // component owns a push timed port (its base cycle is counted in periods).
   ReturnCode request_period(double seconds) noexcept;
 
   // Busy / idle / refresh notifications on the port the component profile's
-  // <notifications port=".."/> names (docs/PROFILES.md, "Notifications"). Any thread, no
-  // allocation; not_connected (and nothing sent) when the profile gives the component no
+  // <notifications port=".."/> names (docs/PROFILES.md, "Notifications"). One thread at a
+  // time, as any output port (the component's own: its context's, which raises the auto
+  // ones); no allocation; not_connected (and nothing sent) when the profile gives the component no
   // such port. With <notifications auto="true"/> the execution context raises busy before
   // and idle after each onExecute on top of what the component raises itself.
   Status notify_busy() noexcept { return notify(NotificationKind::busy); }
@@ -252,7 +255,8 @@ class EventInPort {
     return activate_conditions(*static_cast<DataInPort*>(port_), mode,
                                std::span<const ConditionParameter>(parameters.begin(), parameters.size()));
   }
-  // No events until activated again.
+  // No events until activated again (but for one state the server's thread may be testing
+  // against the activation before, at this moment).
   Status deactivate() noexcept { return deactivate_conditions(*static_cast<DataInPort*>(port_)); }
 
  private:

@@ -51,6 +51,9 @@ struct ExecutionSettings {
 class ExecutionContext {
  public:
   static constexpr Nanos kMinPeriod{1'000};  // 1 us
+  // The shortest period a real-time context takes at run time (set_period): faster, it would
+  // overrun into a thread that never sleeps at real-time priority.
+  static constexpr Nanos kMinRealTimePeriod{100'000};  // 100 us
   explicit ExecutionContext(ExecutionSettings settings);
   ExecutionContext(const ExecutionContext&) = delete;
   ExecutionContext& operator=(const ExecutionContext&) = delete;
@@ -85,7 +88,9 @@ class ExecutionContext {
   // period() is the one the thread runs at now.
   const ExecutionSettings& settings() const noexcept { return settings_; }
   Nanos period() const noexcept { return Nanos{period_ns_.load(std::memory_order_relaxed)}; }
-  // From the next cycle on; false (and nothing changed) below kMinPeriod. Any thread.
+  // From the next cycle on; false (and nothing changed) below kMinPeriod, below
+  // kMinRealTimePeriod for a real-time context, or under twice its spin tail (the thread must
+  // still sleep in each period). Any thread.
   bool set_period(Nanos period) noexcept;
   std::uint64_t period_changes() const noexcept { return period_changes_.load(std::memory_order_relaxed); }
   const std::vector<Lifecycle*>& members() const noexcept { return members_; }

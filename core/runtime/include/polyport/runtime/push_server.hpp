@@ -97,7 +97,10 @@ class PushServer final : public ConnectionSetObserver {
   std::uint32_t writes_per_cycle_;
   std::uint32_t phase_ = 0;  // writer thread: writes since the last base cycle began
   std::atomic<bool> active_{true};
-  std::atomic<bool> busy_{false};  // push newest: the writer, or the control thread priming
+  // Push newest: held by the writer, or the control thread priming. 0 free, 1 held, 2 held
+  // with a sleeper (a futex word: a waiter sleeps instead of yielding, which a real-time
+  // writer would never do in favour of an ordinary holder).
+  std::atomic<std::uint32_t> busy_{0};
   std::atomic<const void*> holder_{nullptr};  // the thread that holds busy_ (re-entry check)
   // Push newest: the latest sample (under busy_).
   std::unique_ptr<std::byte[]> latest_;
