@@ -27,11 +27,6 @@ namespace {
 constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
 constexpr int kRelayOffset = 100000;  // PoseRelay (tests/plugins) adds it to each id
 
-std::string read_file(const fs::path& file) {
-  std::ifstream in(file);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 struct Ctl {
   int code = -1;
   std::string out, err;

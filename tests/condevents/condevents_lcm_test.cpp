@@ -18,11 +18,6 @@ namespace {
 
 constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
 
-std::string read_file(const fs::path& file) {
-  std::ifstream in(file);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 class ConditionEventsLcm : public DaemonTest {
  protected:
   ConditionEventsLcm() : DaemonTest("polyport-condevents") {}

@@ -27,13 +27,6 @@ struct Ctl {
   Json json() const { return Json::parse(out, nullptr, false); }
 };
 
-std::string read_file(const fs::path& file) {
-  std::ifstream in(file);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 // A connected raw client of the admin socket.
 class RawClient {
  public:

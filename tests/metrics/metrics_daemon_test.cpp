@@ -17,13 +17,6 @@ namespace {
 const fs::path kProfile = POLYPORT_SOURCE_DIR "/profiles/wheelchair_inproc.xml";
 constexpr const char* kPython = "/usr/bin/python3";
 
-std::string read_file(const fs::path& file) {
-  std::ifstream in(file);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 struct Outcome {
   int code = -1;
   std::string out;

@@ -22,11 +22,6 @@ namespace {
 
 constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
 
-std::string read_file(const fs::path& file) {
-  std::ifstream in(file);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 class PushLcm : public DaemonTest {
  protected:
   PushLcm() : DaemonTest("polyport-push-lcm") {}

@@ -113,6 +113,12 @@ class Child {
 // The scheduling of a process's thread named `name` (its comm), from /proc/PID/task/TID/stat:
 // {real-time priority (field 40), policy (field 41: 0 SCHED_OTHER, 1 SCHED_FIFO, 2 SCHED_RR)};
 // nullopt when no thread has that name.
+// A whole file as text ("" when it cannot be read): logs, traces, statistics files.
+inline std::string read_file(const fs::path& file) {
+  std::ifstream in(file);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
 inline std::optional<std::pair<int, int>> thread_scheduling(pid_t pid, const std::string& name) {
   std::error_code ec;
   for (const auto& task : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task", ec)) {
