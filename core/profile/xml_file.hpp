@@ -91,10 +91,48 @@ class XmlFile {
                         std::string("XML syntax error: ") + result.description());
       return false;
     }
-    return true;
+    return comments_well_formed();
   }
 
   pugi::xml_node root() const { return doc_.document_element(); }
+
+ private:
+  // XML forbids "--" inside a comment (and a comment ending in "-"); pugixml accepts both,
+  // xmllint and every other parser refuse the file. Such a profile is refused here too, so
+  // `polyportd check` never passes a file the schema check or another tool rejects. A second,
+  // comment-keeping parse, only when the text has a comment.
+  bool comments_well_formed() {
+    if (text_.find("<!--") == std::string::npos) return true;
+    pugi::xml_document with_comments;
+    if (!with_comments.load_buffer(text_.data(), text_.size(), pugi::parse_default | pugi::parse_comments,
+                                   pugi::encoding_utf8)) {
+      return true;  // parsed once already; nothing more to say
+    }
+    bool ok = true;
+    struct Walker : pugi::xml_tree_walker {
+      std::function<void(pugi::xml_node)> visit;
+      bool for_each(pugi::xml_node& node) override {
+        if (node.type() == pugi::node_comment) visit(node);
+        return true;
+      }
+    } walker;
+    walker.visit = [&](pugi::xml_node comment) {
+      const std::string_view value = comment.value();
+      const std::size_t inner = value.find("--");
+      const bool ends_in_dash = !value.empty() && value.back() == '-';
+      if (inner == std::string_view::npos && !ends_in_dash) return;
+      const std::size_t at = inner != std::string_view::npos ? inner : value.size() - 1;
+      diagnostics_->error(at_offset(comment.offset_debug() + static_cast<std::ptrdiff_t>(at)), "",
+                          inner != std::string_view::npos
+                              ? "XML syntax error: '--' is not allowed inside a comment"
+                              : "XML syntax error: a comment must not end in '-' before its '-->'");
+      ok = false;
+    };
+    with_comments.traverse(walker);
+    return ok;
+  }
+
+ public:
   const std::string& name() const { return file_; }
   Diagnostics& diagnostics() const { return *diagnostics_; }
 

@@ -279,6 +279,16 @@ TEST_F(ProfileLoader, XmlSyntaxError) {
   }));
 }
 
+// pugixml alone reads these comments; xmllint (and the XSD check) refuses the file, and so does
+// the loader, at the first forbidden dash.
+TEST_F(ProfileLoader, DoubleHyphenInACommentIsASyntaxError) {
+  EXPECT_FALSE(load("invalid/comment_dashes.xml").has_value());
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      "invalid/comment_dashes.xml:5:17: XML syntax error: '--' is not allowed inside a comment",
+      "invalid/comment_dashes.xml:8:24: XML syntax error: a comment must not end in '-' before its '-->'",
+  }));
+}
+
 TEST_F(ProfileLoader, WrongRootElement) {
   EXPECT_FALSE(load("invalid/wrong_root.xml").has_value());
   EXPECT_EQ(messages(), (std::vector<std::string>{
