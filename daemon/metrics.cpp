@@ -8,6 +8,7 @@
 #include "polyport/runtime/engine.hpp"
 #include "polyport/runtime/execution_context.hpp"
 #include "polyport/runtime/histogram.hpp"
+#include "polyport/runtime/service.hpp"
 
 namespace polyport::daemon {
 namespace {
@@ -162,6 +163,12 @@ void add_histogram_buckets(const Engine& engine, Json& stats) {
     if (listed[i].value("removed", false) || listed[i].value("name", "") != connections[i]->name()) continue;
     listed[i]["latency_ns"]["buckets"] = buckets_json(connections[i]->latency());
   }
+  const auto& links = engine.service_links();
+  Json& services = stats["services"];
+  for (std::size_t i = 0; i < links.size() && i < services.size(); ++i) {
+    if (services[i].value("name", "") != links[i].first->full_name() + " -> " + links[i].second->full_name()) continue;
+    services[i]["latency_ns"]["buckets"] = buckets_json(links[i].first->latency());
+  }
   const auto& contexts = engine.executors().contexts();
   Json& executions = stats["execution_contexts"];
   for (std::size_t i = 0; i < contexts.size() && i < executions.size(); ++i) {
@@ -232,6 +239,51 @@ std::string render_prometheus(const Json& stats) {
         state.add(with_state, w.value("state", "") == s ? 1 : 0);
       }
     }
+    if (c.contains("condition")) {
+      const Json& k = c["condition"];
+      Family& events = e.family("polyport_condition_events_total", "counter",
+                                "Events an event condition saw, by what became of them (docs/PROFILES.md).");
+      for (const char* outcome : {"fired", "suppressed", "inactive"}) {
+        Labels with_outcome = labels;
+        with_outcome.emplace_back("outcome", outcome);
+        events.add(with_outcome, count_of(k, outcome));
+      }
+      e.family("polyport_condition_activations_total", "counter", "Times a client activated the condition.")
+          .add(labels, count_of(k, "activations"));
+      e.family("polyport_condition_active", "gauge", "1 while the condition is active.")
+          .add(labels, k.value("active", false) ? 1 : 0);
+    }
+    if (c.contains("push")) {
+      const Json& p = c["push"];
+      e.family("polyport_push_active", "gauge", "1 while the push server is active (clients read not active otherwise).")
+          .add(labels, p.value("active", false) ? 1 : 0);
+      e.family("polyport_push_primed_total", "counter", "Late subscribers primed with the latest value.")
+          .add(labels, count_of(p, "primed"));
+      e.family("polyport_push_not_active_writes_total", "counter", "Writes of the server while it was not active.")
+          .add(labels, count_of(p, "not_active_writes"));
+    }
+    if (c.contains("subscription")) {
+      const Json& sub = c["subscription"];
+      e.family("polyport_subscription_subscribed", "gauge", "1 while the connection's client is subscribed.")
+          .add(labels, sub.value("subscribed", false) ? 1 : 0);
+      e.family("polyport_subscription_skipped_total", "counter", "Samples skipped to keep the client's every-Nth cycle.")
+          .add(labels, count_of(sub, "skipped"));
+    }
+  }
+
+  for (const Json& c : stats.value("services", none)) {
+    const Labels labels{{"service", c.value("name", "")}};
+    Family& calls = e.family("polyport_service_calls_total", "counter",
+                             "Calls over a service link, by outcome (docs/CONTROL.md).");
+    for (const char* outcome : {"ok", "timeouts", "errors", "not_connected", "too_many_calls", "cancelled"}) {
+      Labels with_outcome = labels;
+      with_outcome.emplace_back("outcome", outcome);
+      calls.add(with_outcome, count_of(c, outcome));
+    }
+    e.family("polyport_service_provider_rejected_total", "counter", "Calls the provider refused.")
+        .add(labels, count_of(c, "provider_rejected"));
+    e.family("polyport_service_latency_seconds", "histogram", "Time from a call to its reply.")
+        .add_histogram(labels, c.value("latency_ns", Json::object()));
   }
 
   for (const Json& x : stats.value("execution_contexts", none)) {

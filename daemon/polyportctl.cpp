@@ -263,9 +263,10 @@ void print_stats(const json& s, std::ostream& out) {
   table(out, rows);
   if (!s.value("services", json::array()).empty()) {
     out << "\n";
-    rows = {{"SERVICE", "CALLS", "OK", "TIMEOUTS", "ERRORS"}};
+    rows = {{"SERVICE", "CALLS", "OK", "TIMEOUTS", "ERRORS", "REFUSED", "CANCELLED"}};
     for (const auto& c : s["services"]) {
-      rows.push_back({text(c, "name"), text(c, "calls"), text(c, "ok"), text(c, "timeouts"), text(c, "errors")});
+      rows.push_back({text(c, "name"), text(c, "calls"), text(c, "ok"), text(c, "timeouts"), text(c, "errors"),
+                      text(c, "too_many_calls"), text(c, "cancelled")});
     }
     table(out, rows);
   }

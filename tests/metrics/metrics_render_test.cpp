@@ -198,5 +198,53 @@ TEST(MetricsRender, RemovedConnectionsAndWatchdogs) {
             "polyport_watchdog_state{connection=\"w\",state=\"tripped\"} 1");
 }
 
+TEST(MetricsRender, ConditionPushSubscriptionAndServiceCounters) {
+  Json conditioned{{"name", "c"},
+                   {"received", 9},
+                   {"latency_ns", Json::object()},
+                   {"condition", {{"active", true}, {"fired", 4}, {"suppressed", 3}, {"inactive", 2}, {"activations", 1}}},
+                   {"push", {{"active", false}, {"primed", 6}, {"not_active_writes", 5}}},
+                   {"subscription", {{"subscribed", true}, {"skipped", 7}}}};
+  Json stats = stats_with(conditioned);
+  stats["services"] = Json::array({{{"name", "A.svc -> B.svc"},
+                                    {"calls", 21},
+                                    {"ok", 10},
+                                    {"timeouts", 1},
+                                    {"errors", 2},
+                                    {"not_connected", 3},
+                                    {"too_many_calls", 4},
+                                    {"cancelled", 1},
+                                    {"provider_rejected", 8},
+                                    {"latency_ns", histogram_of({3000, 4000})}}});
+  const std::string text = render_prometheus(stats);
+  EXPECT_EQ(starting(text, "polyport_condition_events_total{"),
+            (std::vector<std::string>{"polyport_condition_events_total{connection=\"c\",outcome=\"fired\"} 4",
+                                      "polyport_condition_events_total{connection=\"c\",outcome=\"suppressed\"} 3",
+                                      "polyport_condition_events_total{connection=\"c\",outcome=\"inactive\"} 2"}));
+  EXPECT_EQ(starting(text, "polyport_condition_active{")[0], "polyport_condition_active{connection=\"c\"} 1");
+  EXPECT_EQ(starting(text, "polyport_condition_activations_total{")[0],
+            "polyport_condition_activations_total{connection=\"c\"} 1");
+  EXPECT_EQ(starting(text, "polyport_push_active{")[0], "polyport_push_active{connection=\"c\"} 0");
+  EXPECT_EQ(starting(text, "polyport_push_primed_total{")[0], "polyport_push_primed_total{connection=\"c\"} 6");
+  EXPECT_EQ(starting(text, "polyport_push_not_active_writes_total{")[0],
+            "polyport_push_not_active_writes_total{connection=\"c\"} 5");
+  EXPECT_EQ(starting(text, "polyport_subscription_subscribed{")[0], "polyport_subscription_subscribed{connection=\"c\"} 1");
+  EXPECT_EQ(starting(text, "polyport_subscription_skipped_total{")[0],
+            "polyport_subscription_skipped_total{connection=\"c\"} 7");
+  const std::vector<std::string> calls = starting(text, "polyport_service_calls_total{");
+  ASSERT_EQ(calls.size(), 6u);
+  EXPECT_EQ(calls[0], "polyport_service_calls_total{service=\"A.svc -> B.svc\",outcome=\"ok\"} 10");
+  EXPECT_EQ(calls[5], "polyport_service_calls_total{service=\"A.svc -> B.svc\",outcome=\"cancelled\"} 1");
+  EXPECT_EQ(starting(text, "polyport_service_provider_rejected_total{")[0],
+            "polyport_service_provider_rejected_total{service=\"A.svc -> B.svc\"} 8");
+  EXPECT_EQ(starting(text, "polyport_service_latency_seconds_count{")[0],
+            "polyport_service_latency_seconds_count{service=\"A.svc -> B.svc\"} 2");
+  // A plain connection has none of them.
+  const std::string plain = render_prometheus(stats_with({{"name", "p"}, {"received", 1}, {"latency_ns", Json::object()}}));
+  EXPECT_EQ(plain.find("polyport_condition_"), std::string::npos);
+  EXPECT_EQ(plain.find("polyport_push_"), std::string::npos);
+  EXPECT_EQ(plain.find("polyport_service_"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace polyport::daemon

@@ -87,6 +87,10 @@ class Engine {
   Interceptor* find_interceptor(std::string_view name) const noexcept;
   Port* find_port(std::string_view path) const noexcept;  // "Component.port"
   const std::vector<std::unique_ptr<Connection>>& connections() const noexcept { return connections_; }
+  // Every service link, in the order stats lists them under "services".
+  const std::vector<std::pair<RequiredServicePort*, ProvidedServicePort*>>& service_links() const noexcept {
+    return service_links_;
+  }
   const ExecutionContextPool& executors() const noexcept { return executors_; }
   TypeRegistry& types() noexcept { return types_; }
 
