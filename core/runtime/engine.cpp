@@ -814,6 +814,7 @@ void Engine::stats(nlohmann::json& out) const {
     out["execution_contexts"].push_back(std::move(j));
   }
   out["memory_locked"] = executors_.memory_locked();
+  out["memory_was_locked"] = executors_.memory_was_locked();
 }
 
 std::string Engine::summary_line() const {

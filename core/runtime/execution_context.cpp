@@ -268,6 +268,7 @@ void ExecutionContextPool::lock_memory(std::vector<std::string>& warnings) {
     return;
   }
   memory_locked_ = true;
+  memory_was_locked_ = true;
 }
 
 void ExecutionContextPool::stop_all() {

@@ -313,6 +313,7 @@ TEST(ExecutionContextPool, ARealTimeContextLocksMemoryWhereTheLimitsAllow) {
     std::vector<std::string> warnings;
     plain.start_all(warnings);
     EXPECT_FALSE(plain.memory_locked());
+    EXPECT_FALSE(plain.memory_was_locked());
     EXPECT_EQ(locked_kib(), 0);
     EXPECT_TRUE(warnings.empty());
     plain.stop_all();
@@ -331,8 +332,10 @@ TEST(ExecutionContextPool, ARealTimeContextLocksMemoryWhereTheLimitsAllow) {
     EXPECT_NE(said.find("memory not locked"), std::string::npos) << said;
     EXPECT_EQ(locked_kib(), 0);
   }
+  const bool locked = pool.memory_locked();
   pool.stop_all();
   EXPECT_FALSE(pool.memory_locked());
+  EXPECT_EQ(pool.memory_was_locked(), locked) << "the run's final statistics still say it was locked";
   EXPECT_EQ(locked_kib(), 0) << "stop_all unlocks";
 }
 

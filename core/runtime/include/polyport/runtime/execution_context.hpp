@@ -158,6 +158,9 @@ class ExecutionContextPool {
   void start_all(std::vector<std::string>& warnings);
   void stop_all();  // and unlocks the memory it locked
   bool memory_locked() const noexcept { return memory_locked_; }
+  // Whether memory was locked at any time since the pool was made: what a run's final
+  // statistics report, written after stop_all unlocked it.
+  bool memory_was_locked() const noexcept { return memory_was_locked_; }
   const std::vector<std::unique_ptr<ExecutionContext>>& contexts() const noexcept { return contexts_; }
 
  private:
@@ -166,6 +169,7 @@ class ExecutionContextPool {
   std::vector<std::unique_ptr<ExecutionContext>> contexts_;
   std::vector<bool> exclusive_;
   bool memory_locked_ = false;
+  bool memory_was_locked_ = false;
   bool lock_decided_ = false;  // the first start_all decided
 };
 
