@@ -11,6 +11,8 @@
 #include "polyport/profile/runtime_checks.hpp"
 #include "polyport/runtime/component_api.hpp"
 #include "polyport/runtime/connection.hpp"
+#include "polyport/runtime/event_condition.hpp"
+#include "polyport/runtime/port.hpp"
 #include "polyport/types/types.hpp"
 
 namespace polyport::daemon {
@@ -192,6 +194,65 @@ std::string ControlRequests::disconnect(const admin::Request& request) {
   if (source != request.source) reply["source_promoted"] = request.source;
   if (target != request.target) reply["target_promoted"] = request.target;
   return admin::ok_reply(request.id, reply);
+}
+
+std::string ControlRequests::condition(const admin::Request& request) {
+  const std::string path = application_.member_path(request.port);
+  auto* port = dynamic_cast<DataInPort*>(engine_.find_port(path));
+  // The event inputs that have a condition: what the error lists.
+  auto conditioned = [&] {
+    std::set<std::string> names;
+    for (const auto& c : engine_.connections()) {
+      if (c->condition() != nullptr) names.insert(c->target().full_name());
+    }
+    std::string out;
+    for (const std::string& name : names) out += (out.empty() ? "" : ", ") + name;
+    return out.empty() ? std::string("no connection has a condition") : "ports with conditions: " + out;
+  };
+  if (port == nullptr || port->kind() != PortKind::event) {
+    return admin::error_reply(request.id, admin::kUnknownPort,
+                              "no event input port '" + request.port + "' (" + conditioned() + ")");
+  }
+  const EventMode mode = request.mode == "single" ? EventMode::single : EventMode::continuous;
+  std::vector<ConditionParameter> parameters;
+  for (const auto& [name, value] : request.parameters) parameters.push_back({name, value});
+  const Status status = request.active ? activate_conditions(*port, mode, parameters) : deactivate_conditions(*port);
+  if (status == Status::not_connected) {
+    return admin::error_reply(request.id, admin::kRefused,
+                              "no connection into " + request.port + " has a condition (" + conditioned() + ")");
+  }
+  if (status != Status::ok) {
+    std::string used;
+    for (Connection* c : port->connections().current()) {
+      if (const EventCondition* k = c->condition()) {
+        for (const ConditionField& f : k->fields()) {
+          if (!f.param.empty() && used.find("'" + f.param + "'") == std::string::npos) {
+            used += (used.empty() ? "'" : ", '") + f.param + "'";
+          }
+        }
+      }
+    }
+    return admin::error_reply(request.id, admin::kBadValue,
+                              "a parameter names no field of " + request.port + "'s conditions (their parameters: " +
+                                  (used.empty() ? "none" : used) + "); nothing changed");
+  }
+  nlohmann::json conditions = nlohmann::json::array();
+  for (Connection* c : port->connections().current()) {
+    const EventCondition* k = c->condition();
+    if (k == nullptr) continue;
+    nlohmann::json fields = nlohmann::json::array();
+    const std::vector<double> thresholds = k->thresholds();
+    for (std::size_t i = 0; i < k->fields().size(); ++i) {
+      fields.push_back({{"field", k->fields()[i].path}, {"op", to_string(k->fields()[i].op)}, {"value", thresholds[i]}});
+    }
+    conditions.push_back({{"connection", c->name()}, {"fields", std::move(fields)}});
+  }
+  spdlog::info("admin: condition {} {}{}", request.port, request.active ? "activated, " : "deactivated",
+               request.active ? std::string(to_string(mode)) : std::string());
+  return admin::ok_reply(request.id, {{"port", request.port},
+                                      {"active", request.active},
+                                      {"mode", to_string(mode)},
+                                      {"conditions", std::move(conditions)}});
 }
 
 std::optional<std::string> ControlRequests::composite_command(const admin::Request& request,

@@ -19,6 +19,7 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <iomanip>
@@ -452,6 +453,28 @@ int main(int argc, char** argv) {
   CLI::Option* duration_option =
       trace_command->add_option("--duration", duration_s, "stop after SEC seconds")->check(CLI::Range(0.001, 1e9));
   commands.emplace_back(trace_command, Command::trace);
+  CLI::App* condition_command = app.add_subcommand(
+      "condition", "switch on or off the conditions on the event connections into a client's event input");
+  condition_command->add_option("port", request.port, "the client's event input port, COMPONENT.PORT")
+      ->required()
+      ->check(port_path);
+  std::string state;
+  condition_command->add_option("state", state, "on or off")->required()->check(CLI::IsMember({"on", "off"}));
+  bool single = false;
+  condition_command->add_flag("--single", single, "fire once, then stay off until switched on again (default: continuous)");
+  std::vector<std::string> parameter_texts;
+  condition_command->add_option("--param", parameter_texts, "NAME=VALUE: the threshold of the fields whose param is NAME")
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            const auto equals = text.find('=');
+            char* end = nullptr;
+            if (equals == std::string::npos || equals == 0) return "'" + text + "' is not NAME=VALUE";
+            const std::string value = text.substr(equals + 1);
+            std::strtod(value.c_str(), &end);
+            return end == value.c_str() || *end != '\0' ? "'" + value + "' in '" + text + "' is not a number" : std::string();
+          },
+          "NAME=VALUE"));
+  commands.emplace_back(condition_command, Command::condition);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -466,6 +489,14 @@ int main(int argc, char** argv) {
   if (depth_option->count() > 0) request.depth = depth;
   if (count_option->count() > 0) request.count = count;
   if (duration_option->count() > 0) request.duration_s = duration_s;
+  if (command == Command::condition) {
+    request.active = state == "on";
+    if (request.active) request.mode = single ? "single" : "continuous";
+    for (const std::string& text : parameter_texts) {
+      const auto equals = text.find('=');
+      request.parameters.emplace_back(text.substr(0, equals), std::strtod(text.c_str() + equals + 1, nullptr));
+    }
+  }
   try {
     if (socket_path.empty()) socket_path = find_socket();
     const auto limit = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
@@ -512,6 +543,16 @@ int main(int argc, char** argv) {
       }
       case Command::disconnect:
         std::cout << "disconnected " << text(result, "source") << " -> " << text(result, "target") << "\n";
+        break;
+      case Command::condition:
+        for (const auto& c : result.value("conditions", json::array())) {
+          std::cout << text(c, "connection") << ": " << (result.value("active", false) ? text(result, "mode") : "off");
+          for (const auto& f : c.value("fields", json::array())) {
+            std::cout << (result.value("active", false) ? ", " : ", when on: ") << text(f, "field") << " "
+                      << text(f, "op") << " " << f.value("value", 0.0);  // as check writes it: 2, 1e+09
+          }
+          std::cout << "\n";
+        }
         break;
       case Command::reload:
         print_reload(result, std::cout);

@@ -462,6 +462,8 @@ std::string answer(const admin::Request& request, std::uint64_t client, Engine& 
       return control.connect(request);
     case Command::disconnect:
       return control.disconnect(request);
+    case Command::condition:
+      return control.condition(request);
     case Command::reload:
       return control.reload(request, read);
     case Command::stats:

@@ -65,6 +65,13 @@ void ExecutionContext::start(std::vector<std::string>& warnings) {
   realtime_applied_ = outcome.realtime_applied;
   pinned_ = outcome.pinned;
   if (!outcome.problem.empty()) warnings.push_back(outcome.problem);
+  // The command lock is the one lock a real-time cycle shares with the control thread; without
+  // priority inheritance an ordinary thread holding it can delay the cycle unboundedly.
+  if (realtime_applied_ && !command_mutex_.inherits_priority()) {
+    warnings.push_back("execution context '" + settings_.name +
+                       "': its command lock has no priority inheritance (PTHREAD_PRIO_INHERIT refused); "
+                       "a lifecycle command may delay a cycle");
+  }
 }
 
 void ExecutionContext::stop() {

@@ -8,7 +8,7 @@
 namespace polyport::admin {
 namespace {
 
-constexpr std::array<std::pair<std::string_view, Command>, 12> kCommands{{
+constexpr std::array<std::pair<std::string_view, Command>, 13> kCommands{{
     {"hello", Command::hello},
     {"list", Command::list},
     {"stats", Command::stats},
@@ -21,6 +21,7 @@ constexpr std::array<std::pair<std::string_view, Command>, 12> kCommands{{
     {"disconnect", Command::disconnect},
     {"reload", Command::reload},
     {"trace", Command::trace},
+    {"condition", Command::condition},
 }};
 
 // The fields a request may carry besides v, id and cmd.
@@ -35,8 +36,11 @@ enum Field : unsigned {
   kPort = 1u << 7,
   kCount = 1u << 8,
   kDuration = 1u << 9,
+  kActive = 1u << 10,
+  kMode = 1u << 11,
+  kParameters = 1u << 12,
 };
-constexpr std::array<std::pair<const char*, Field>, 10> kFields{{
+constexpr std::array<std::pair<const char*, Field>, 13> kFields{{
     {"component", kComponent},
     {"property", kProperty},
     {"value", kValue},
@@ -47,6 +51,9 @@ constexpr std::array<std::pair<const char*, Field>, 10> kFields{{
     {"port", kPort},
     {"count", kCount},
     {"duration", kDuration},
+    {"active", kActive},
+    {"mode", kMode},
+    {"parameters", kParameters},
 }};
 
 struct Shape {
@@ -75,6 +82,8 @@ Shape shape_of(Command command) noexcept {
       return {kSource | kTarget, 0};
     case Command::trace:
       return {kPort, kCount | kDuration};
+    case Command::condition:
+      return {kPort | kActive, kMode | kParameters};
   }
   return {0, 0};
 }
@@ -136,6 +145,33 @@ bool read_field(Field field, const nlohmann::json& v, Request& request, std::str
       else {
         message = "\"value\" must be a string, a number or a boolean";
         return false;
+      }
+      return true;
+    case kActive:
+      if (!v.is_boolean()) {
+        message = "\"active\" must be true or false";
+        return false;
+      }
+      request.active = v.get<bool>();
+      return true;
+    case kMode:
+      if (!v.is_string() || (v.get_ref<const std::string&>() != "single" && v.get_ref<const std::string&>() != "continuous")) {
+        message = "\"mode\" must be \"single\" or \"continuous\"";
+        return false;
+      }
+      request.mode = v.get<std::string>();
+      return true;
+    case kParameters:
+      if (!v.is_object()) {
+        message = "\"parameters\" must be an object of numbers by parameter name";
+        return false;
+      }
+      for (const auto& [name, value] : v.items()) {
+        if (name.empty() || !value.is_number()) {
+          message = "\"parameters\" must be an object of numbers by parameter name ('" + name + "' is not)";
+          return false;
+        }
+        request.parameters.emplace_back(name, value.get<double>());
       }
       return true;
     case kDepth:
@@ -289,6 +325,13 @@ std::string request_line(const Request& request) {
   if (fields & kPort) j["port"] = request.port;
   if ((fields & kCount) && request.count) j["count"] = *request.count;
   if ((fields & kDuration) && request.duration_s) j["duration"] = *request.duration_s;
+  if (fields & kActive) j["active"] = request.active;
+  if ((fields & kMode) && !request.mode.empty()) j["mode"] = request.mode;
+  if ((fields & kParameters) && !request.parameters.empty()) {
+    nlohmann::json parameters = nlohmann::json::object();
+    for (const auto& [name, value] : request.parameters) parameters[name] = value;
+    j["parameters"] = std::move(parameters);
+  }
   return dump(j);
 }
 

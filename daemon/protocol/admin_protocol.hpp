@@ -10,6 +10,8 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -21,7 +23,7 @@ inline constexpr int kProtocolVersion = 1;
 inline constexpr std::size_t kMaxRequestLine = 64 * 1024;
 
 // The commands of protocol version 1.
-enum class Command { hello, list, stats, activate, deactivate, reset, get, set, connect, disconnect, reload, trace };
+enum class Command { hello, list, stats, activate, deactivate, reset, get, set, connect, disconnect, reload, trace, condition };
 std::string_view to_string(Command command) noexcept;
 // Lifecycle commands, get and set name a component.
 bool needs_component(Command command) noexcept;
@@ -39,6 +41,12 @@ struct Request {
   std::string port;                   // trace: "Component.port", an output data port
   std::optional<std::int64_t> count;  // trace: stop after this many samples (at least 1)
   std::optional<double> duration_s;   // trace: stop after this many seconds (more than 0)
+  // condition (`port`: the client's event input): on or off; when on, "single" or
+  // "continuous" (empty: continuous) and parameters by name, each overriding the threshold
+  // of the fields whose `param` it names.
+  bool active = false;
+  std::string mode;
+  std::vector<std::pair<std::string, double>> parameters;
 };
 
 // Error codes of a refused request (the reply's "code"); polyportctl maps access_denied to

@@ -46,6 +46,24 @@ class ConditionEventsLcm : public DaemonTest {
     return Json::parse(read_file(dir() / (tag + ".out")), nullptr, false);
   }
 
+  // `polyportctl ARGS...`: exit code, stdout and stderr.
+  struct Ctl {
+    int code = -1;
+    std::string out, err;
+  };
+  Ctl ctl(std::vector<std::string> args) {
+    const std::string tag = "ctl-" + std::to_string(++calls_);
+    args.insert(args.begin(), {POLYPORTCTL, "--socket", socket_.string()});
+    Ctl result;
+    {
+      Child child(dir(), tag, args);
+      result.code = child.wait(30s);
+    }
+    result.out = read_file(dir() / (tag + ".out"));
+    result.err = read_file(dir() / (tag + ".err"));
+    return result;
+  }
+
   fs::path socket_;
   int calls_ = 0;
 };
@@ -138,6 +156,63 @@ TEST_F(ConditionEventsLcm, CycloneDdsServerStateToAnLcmClient) {
   EXPECT_GE(c["fired"].get<long long>(), static_cast<long long>(got.size())) << c.dump();
   EXPECT_EQ(c["tested"].get<long long>(), c["fired"].get<long long>() + c["suppressed"].get<long long>());
   EXPECT_EQ((*link)["delivered"], c["fired"]);
+}
+
+// A foreign client cannot activate its condition itself: the operator does, with polyportctl
+// condition, giving the threshold as a parameter; off again, and on for a single shot.
+TEST_F(ConditionEventsLcm, PolyportctlSwitchesAForeignClientsCondition) {
+  auto client = lcm_peer("client", {"sub", kUrl, "EVENT_CONTINUOUS"});
+  auto daemon = this->daemon(app("ctl_app.xml"), {"--admin-socket", socket_.string()});
+  auto server = lcm_peer("server", {"pub", kUrl, "STATE", "5"});
+  const std::string link = "server.state -> client.event";
+  auto counter = [&](const char* name) {
+    const Json stats = ctl_stats();
+    return stats.is_discarded() ? -1LL : condition_of(stats, link).value(name, -1LL);
+  };
+  // Off: states come and are counted as inactive; none reaches the client.
+  ASSERT_TRUE(eventually([&] { return counter("inactive") >= 10; }, 60s)) << daemon->errors();
+  EXPECT_TRUE(poses(*client).empty());
+
+  // Refused, with the reason, and nothing changed.
+  Ctl bad = ctl({"condition", "client.event", "on", "--param", "max_y=3"});
+  EXPECT_EQ(bad.code, 1) << bad.out << bad.err;
+  EXPECT_NE(bad.err.find("their parameters: 'min_x'"), std::string::npos) << bad.err;
+  Ctl output = ctl({"condition", "server.state", "on"});
+  EXPECT_EQ(output.code, 1) << output.out << output.err;
+  EXPECT_NE(output.err.find("no event input port 'server.state' (ports with conditions: client.event)"),
+            std::string::npos) << output.err;
+  EXPECT_EQ(ctl({"condition", "client.event", "maybe"}).code, 2);
+  EXPECT_EQ(counter("activations"), 0);
+
+  // On, with x > 2: states come through, each with x > 2.
+  Ctl on = ctl({"condition", "client.event", "on", "--param", "min_x=2"});
+  ASSERT_EQ(on.code, 0) << on.err;
+  EXPECT_EQ(on.out, link + ": continuous, x gt 2\n");
+  ASSERT_TRUE(eventually([&] { return poses(*client).size() >= 10; }, 60s)) << client->errors();
+  for (const Json& pose : poses(*client)) EXPECT_GT(pose["x"].get<double>(), 2.0) << pose.dump();
+
+  // Off: once polyport has counted states as inactive again, the client gets no more.
+  Ctl off = ctl({"condition", "client.event", "off"});
+  ASSERT_EQ(off.code, 0) << off.err;
+  const long long inactive_at_off = counter("inactive");
+  ASSERT_TRUE(eventually([&] { return counter("inactive") >= inactive_at_off + 5; }, 60s));
+  const std::size_t delivered_when_off = poses(*client).size();
+  ASSERT_TRUE(eventually([&] { return counter("inactive") >= inactive_at_off + 20; }, 60s));
+  EXPECT_EQ(poses(*client).size(), delivered_when_off);
+
+  // A single shot: exactly one more state, then off by itself.
+  const long long fired_before = counter("fired");
+  Ctl once = ctl({"condition", "client.event", "on", "--single", "--param", "min_x=2"});
+  ASSERT_EQ(once.code, 0) << once.err;
+  ASSERT_TRUE(eventually([&] { return counter("fired") == fired_before + 1; }, 60s));
+  ASSERT_TRUE(eventually([&] { return poses(*client).size() == delivered_when_off + 1; }, 60s));
+  const long long inactive_after_shot = counter("inactive");
+  ASSERT_TRUE(eventually([&] { return counter("inactive") >= inactive_after_shot + 10; }, 60s));
+  EXPECT_EQ(counter("fired"), fired_before + 1);
+  EXPECT_EQ(poses(*client).size(), delivered_when_off + 1);
+  server.reset();
+  const Json stats = stop(*daemon);
+  EXPECT_EQ(condition_of(stats, link)["activations"], 2) << stats.dump(2);
 }
 
 // polyportd check shows each condition: mode, activation, fields.

@@ -200,6 +200,47 @@ TEST(AdminRequest, RequestLinesRoundTripEveryField) {
   EXPECT_EQ(request_line(connect).find("component"), std::string::npos) << request_line(connect);
 }
 
+TEST(AdminRequest, ParsesAConditionSwitchAndRoundTripsIt) {
+  ParseError error;
+  auto on = parse(R"({"v":1,"id":3,"cmd":"condition","port":"client.event","active":true,"mode":"single",)"
+                  R"("parameters":{"min_x":2.5,"level":15}})",
+                  error);
+  ASSERT_TRUE(on) << error.message;
+  EXPECT_EQ(on->command, Command::condition);
+  EXPECT_EQ(on->port, "client.event");
+  EXPECT_TRUE(on->active);
+  EXPECT_EQ(on->mode, "single");
+  ASSERT_EQ(on->parameters.size(), 2u);
+  EXPECT_EQ(on->parameters[0], (std::pair<std::string, double>{"level", 15.0}));  // JSON objects are ordered by name
+  EXPECT_EQ(on->parameters[1], (std::pair<std::string, double>{"min_x", 2.5}));
+  const std::string line = request_line(*on);
+  auto back = parse_request(std::string_view(line).substr(0, line.size() - 1), error);
+  ASSERT_TRUE(back) << line << error.message;
+  EXPECT_EQ(back->port, on->port);
+  EXPECT_EQ(back->active, on->active);
+  EXPECT_EQ(back->mode, on->mode);
+  EXPECT_EQ(back->parameters, on->parameters);
+  auto off = parse(R"({"v":1,"cmd":"condition","port":"client.event","active":false})", error);
+  ASSERT_TRUE(off) << error.message;
+  EXPECT_FALSE(off->active);
+  EXPECT_TRUE(off->parameters.empty());
+  EXPECT_EQ(request_line(*off).find("mode"), std::string::npos) << request_line(*off);
+
+  for (const auto& [text, expected] : std::vector<std::pair<std::string, std::string>>{
+           {R"({"v":1,"cmd":"condition","port":"c.e"})", "needs \"active\""},
+           {R"({"v":1,"cmd":"condition","active":true})", "needs \"port\""},
+           {R"({"v":1,"cmd":"condition","port":"c.e","active":1})", "\"active\" must be true or false"},
+           {R"({"v":1,"cmd":"condition","port":"c.e","active":true,"mode":"twice"})", "\"mode\" must be"},
+           {R"({"v":1,"cmd":"condition","port":"c.e","active":true,"parameters":[1]})", "an object of numbers"},
+           {R"({"v":1,"cmd":"condition","port":"c.e","active":true,"parameters":{"a":"1"}})", "('a' is not)"},
+           {R"({"v":1,"cmd":"trace","port":"c.e","active":true})", "'trace' takes no \"active\""},
+       }) {
+    EXPECT_FALSE(parse(text, error)) << text;
+    EXPECT_EQ(error.code, kBadRequest) << text;
+    EXPECT_NE(error.message.find(expected), std::string::npos) << text << ": " << error.message;
+  }
+}
+
 TEST(AdminRequest, RefusesALineOverTheBound) {
   ParseError error;
   const std::string line = R"({"v":1,"cmd":"hello","pad":")" + std::string(kMaxRequestLine, 'x') + "\"}";
