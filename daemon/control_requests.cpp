@@ -4,6 +4,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cstdlib>
 
@@ -213,6 +214,12 @@ std::string ControlRequests::condition(const admin::Request& request) {
     return admin::error_reply(request.id, admin::kUnknownPort,
                               "no event input port '" + request.port + "' (" + conditioned() + ")");
   }
+  const bool has_condition = std::any_of(port->connections().current().begin(), port->connections().current().end(),
+                                         [](const Connection* c) { return c->condition() != nullptr; });
+  if (!has_condition) {
+    return admin::error_reply(request.id, admin::kRefused,
+                              "no connection into " + request.port + " has a condition (" + conditioned() + ")");
+  }
   const EventMode mode = request.mode == "single" ? EventMode::single : EventMode::continuous;
   std::vector<ConditionParameter> parameters;
   for (const auto& [name, value] : request.parameters) parameters.push_back({name, value});
@@ -249,10 +256,10 @@ std::string ControlRequests::condition(const admin::Request& request) {
   }
   spdlog::info("admin: condition {} {}{}", request.port, request.active ? "activated, " : "deactivated",
                request.active ? std::string(to_string(mode)) : std::string());
-  return admin::ok_reply(request.id, {{"port", request.port},
-                                      {"active", request.active},
-                                      {"mode", to_string(mode)},
-                                      {"conditions", std::move(conditions)}});
+  nlohmann::json reply{{"port", path}, {"active", request.active}, {"conditions", std::move(conditions)}};
+  if (request.active) reply["mode"] = to_string(mode);
+  if (path != request.port) reply["port_promoted"] = request.port;
+  return admin::ok_reply(request.id, reply);
 }
 
 std::optional<std::string> ControlRequests::composite_command(const admin::Request& request,

@@ -36,7 +36,7 @@ class ControlRequests {
   std::string disconnect(const admin::Request& request);
   // Activates or deactivates the conditions on the event connections into a client's event
   // input (`request.port`), whatever model the client is in: what an in-process client does
-  // with EventInPort::activate, for clients that cannot (DDS, LCM, CAN programs).
+  // with EventInPort::activate, for clients that cannot (LCM and CAN programs).
   std::string condition(const admin::Request& request);
   // Re-reads the profiles and applies what changed (reload.hpp), for SIGHUP and `reload`. The
   // diff as JSON, or why the running graph was kept.

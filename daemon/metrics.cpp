@@ -248,7 +248,7 @@ std::string render_prometheus(const Json& stats) {
         with_outcome.emplace_back("outcome", outcome);
         events.add(with_outcome, count_of(k, outcome));
       }
-      e.family("polyport_condition_activations_total", "counter", "Times a client activated the condition.")
+      e.family("polyport_condition_activations_total", "counter", "Activations of the condition: the profile's initial one, the client's, polyportctl's.")
           .add(labels, count_of(k, "activations"));
       e.family("polyport_condition_active", "gauge", "1 while the condition is active.")
           .add(labels, k.value("active", false) ? 1 : 0);
@@ -282,7 +282,7 @@ std::string render_prometheus(const Json& stats) {
     }
     e.family("polyport_service_provider_rejected_total", "counter", "Calls the provider refused.")
         .add(labels, count_of(c, "provider_rejected"));
-    e.family("polyport_service_latency_seconds", "histogram", "Time from a call to its reply.")
+    e.family("polyport_service_latency_seconds", "histogram", "Time from a call to its reply, for calls a reply ended.")
         .add_histogram(labels, c.value("latency_ns", Json::object()));
   }
 

@@ -19,6 +19,7 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -264,7 +265,7 @@ void print_stats(const json& s, std::ostream& out) {
   table(out, rows);
   if (!s.value("services", json::array()).empty()) {
     out << "\n";
-    rows = {{"SERVICE", "CALLS", "OK", "TIMEOUTS", "ERRORS", "REFUSED", "CANCELLED"}};
+    rows = {{"SERVICE", "CALLS", "OK", "TIMEOUTS", "ERRORS", "TOO_MANY", "CANCELLED"}};
     for (const auto& c : s["services"]) {
       rows.push_back({text(c, "name"), text(c, "calls"), text(c, "ok"), text(c, "timeouts"), text(c, "errors"),
                       text(c, "too_many_calls"), text(c, "cancelled")});
@@ -470,8 +471,10 @@ int main(int argc, char** argv) {
             char* end = nullptr;
             if (equals == std::string::npos || equals == 0) return "'" + text + "' is not NAME=VALUE";
             const std::string value = text.substr(equals + 1);
-            std::strtod(value.c_str(), &end);
-            return end == value.c_str() || *end != '\0' ? "'" + value + "' in '" + text + "' is not a number" : std::string();
+            const double number = std::strtod(value.c_str(), &end);
+            return end == value.c_str() || *end != '\0' || !std::isfinite(number)
+                       ? "'" + value + "' in '" + text + "' is not a finite number"
+                       : std::string();
           },
           "NAME=VALUE"));
   commands.emplace_back(condition_command, Command::condition);
@@ -491,6 +494,10 @@ int main(int argc, char** argv) {
   if (duration_option->count() > 0) request.duration_s = duration_s;
   if (command == Command::condition) {
     request.active = state == "on";
+    if (!request.active && (single || !parameter_texts.empty())) {
+      std::cerr << "polyportctl: --single and --param go with 'on' only\n";
+      return kExitUsage;
+    }
     if (request.active) request.mode = single ? "single" : "continuous";
     for (const std::string& text : parameter_texts) {
       const auto equals = text.find('=');

@@ -117,15 +117,18 @@ class XmlFile {
       }
     } walker;
     walker.visit = [&](pugi::xml_node comment) {
-      const std::string_view value = comment.value();
-      const std::size_t inner = value.find("--");
-      const bool ends_in_dash = !value.empty() && value.back() == '-';
-      if (inner == std::string_view::npos && !ends_in_dash) return;
-      const std::size_t at = inner != std::string_view::npos ? inner : value.size() - 1;
-      diagnostics_->error(at_offset(comment.offset_debug() + static_cast<std::ptrdiff_t>(at)), "",
-                          inner != std::string_view::npos
-                              ? "XML syntax error: '--' is not allowed inside a comment"
-                              : "XML syntax error: a comment must not end in '-' before its '-->'");
+      // Searched in the file's own bytes from where the comment's text starts: the parse
+      // squeezed each CRLF in the value to LF, so offsets in the value are not the file's.
+      const auto start = static_cast<std::size_t>(comment.offset_debug());
+      const std::size_t dashes = text_.find("--", start);
+      if (dashes == std::string::npos) return;
+      std::size_t at = dashes;  // "--" inside the comment
+      if (dashes + 2 < text_.size() && text_[dashes + 2] == '>') {
+        if (dashes == start || text_[dashes - 1] != '-') return;  // its own "-->": fine
+        at = dashes - 1;  // "--->": a '-' right before the end
+      }
+      diagnostics_->error(at_offset(static_cast<std::ptrdiff_t>(at)), "",
+                          "XML syntax error: '--' is not allowed inside a comment (nor a '-' right before its '-->')");
       ok = false;
     };
     with_comments.traverse(walker);

@@ -132,7 +132,7 @@ bool EventCondition::uses(std::string_view parameter) const noexcept {
 }
 
 void EventCondition::apply(EventMode mode, std::span<const ConditionParameter> parameters) noexcept {
-  const std::lock_guard<std::mutex> lock(activating_);
+  const std::lock_guard<PiMutex> lock(activating_);
   // Room for the thresholds without allocating: the writer's scratch is not this thread's,
   // so a small array on the stack, in chunks when a condition has many fields.
   constexpr std::size_t kOnStack = 32;
@@ -155,7 +155,7 @@ void EventCondition::apply(EventMode mode, std::span<const ConditionParameter> p
 }
 
 void EventCondition::deactivate() noexcept {
-  const std::lock_guard<std::mutex> lock(activating_);
+  const std::lock_guard<PiMutex> lock(activating_);
   // The thresholds stay as they were (stats show them); only `active` changes.
   constexpr std::size_t kOnStack = 32;
   double values[kOnStack];

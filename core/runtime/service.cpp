@@ -347,7 +347,8 @@ void RequiredServicePort::finish_async(PendingCall& call, Status status) noexcep
   } else {
     (status == Status::ok ? counters_.ok : counters_.errors).fetch_add(1, std::memory_order_relaxed);
   }
-  if (status == Status::ok) latency_.record((mono_now() - call.started_).count);
+  // Every call a reply ended, as the synchronous path records (a timeout had no reply).
+  if (status != Status::timeout) latency_.record((mono_now() - call.started_).count);
   call.observer_ = nullptr;
   call.state_.store(PendingCall::State::free, std::memory_order_release);
 }

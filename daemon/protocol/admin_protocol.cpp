@@ -287,6 +287,12 @@ std::optional<Request> parse_request(std::string_view line, ParseError& error) {
       return std::nullopt;
     }
   }
+  if (request.command == Command::condition && !request.active &&
+      (j.contains("mode") || j.contains("parameters"))) {
+    error.code = kBadRequest;
+    error.message = "'condition' takes \"mode\" and \"parameters\" only with \"active\": true";
+    return std::nullopt;
+  }
   return request;
 }
 

@@ -191,14 +191,21 @@ TEST_F(ConditionEventsLcm, PolyportctlSwitchesAForeignClientsCondition) {
   ASSERT_TRUE(eventually([&] { return poses(*client).size() >= 10; }, 60s)) << client->errors();
   for (const Json& pose : poses(*client)) EXPECT_GT(pose["x"].get<double>(), 2.0) << pose.dump();
 
-  // Off: once polyport has counted states as inactive again, the client gets no more.
-  Ctl off = ctl({"condition", "client.event", "off"});
+  // Off: once polyport counts states as inactive again, it delivers no more, and the client
+  // gets exactly what polyport delivered.
+  Ctl off = ctl({"condition", "client.event", "off", "--single"});
+  EXPECT_EQ(off.code, 2) << "--single goes with on only";
+  off = ctl({"condition", "client.event", "off"});
   ASSERT_EQ(off.code, 0) << off.err;
   const long long inactive_at_off = counter("inactive");
   ASSERT_TRUE(eventually([&] { return counter("inactive") >= inactive_at_off + 5; }, 60s));
-  const std::size_t delivered_when_off = poses(*client).size();
+  const long long fired_when_off = counter("fired");
+  ASSERT_TRUE(eventually([&] { return static_cast<long long>(poses(*client).size()) == fired_when_off; }, 60s))
+      << poses(*client).size() << " poses, " << fired_when_off << " fired";
   ASSERT_TRUE(eventually([&] { return counter("inactive") >= inactive_at_off + 20; }, 60s));
-  EXPECT_EQ(poses(*client).size(), delivered_when_off);
+  EXPECT_EQ(counter("fired"), fired_when_off);
+  EXPECT_EQ(static_cast<long long>(poses(*client).size()), fired_when_off);
+  const std::size_t delivered_when_off = poses(*client).size();
 
   // A single shot: exactly one more state, then off by itself.
   const long long fired_before = counter("fired");

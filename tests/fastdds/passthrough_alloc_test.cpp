@@ -61,36 +61,40 @@ TEST_F(FastddsPassthroughAlloc, ForwardingASampleAllocatesNothingInPolyport) {
     // A demo::Pose as XCDR1 bytes would be; passthrough carries them without looking.
     std::vector<std::byte> sample(64);
     sample[1] = std::byte{1};  // CDR_LE
+    // Sample i carries i in byte 4 and 0 in byte 5; waiting is for that very sample, so a
+    // late repeat of the first one (below) is never taken for another.
+    auto arrived = [&](std::byte tag, std::byte mark, std::size_t from) {
+      std::lock_guard<std::mutex> lock(mutex);
+      for (std::size_t k = from; k < received.size(); ++k) {
+        if (received[k].size() > 5 && received[k][4] == tag && received[k][5] == mark) return true;
+      }
+      return false;
+    };
+    auto count_received = [&] {
+      std::lock_guard<std::mutex> lock(mutex);
+      return received.size();
+    };
     auto send_and_wait = [&](int count) {
       for (int i = 0; i < count; ++i) {
         sample[4] = static_cast<std::byte>(i);
-        const std::size_t before = [&] {
-          std::lock_guard<std::mutex> lock(mutex);
-          return received.size();
-        }();
+        const std::size_t before = count_received();
         ASSERT_EQ(writer.value()->write(sample.data(), static_cast<std::uint32_t>(sample.size())), Status::ok);
-        ASSERT_TRUE(eventually([&] {
-          std::lock_guard<std::mutex> lock(mutex);
-          return received.size() > before;
-        })) << "sample " << i << " did not arrive on domain 157";
+        ASSERT_TRUE(eventually([&] { return arrived(sample[4], std::byte{0}, before); }))
+            << "sample " << i << " did not arrive on domain 157";
       }
     };
     // Discovery is not symmetric: the right reader may list polyport's writer before that
-    // writer lists it, and a volatile sample written in between reaches nobody. So the first
-    // sample is repeated until one arrives; from then on every sample must.
+    // writer lists it, and a volatile sample written in between reaches nobody. So a first
+    // sample (marked in byte 5) is repeated until one arrives; from then on every sample must.
+    // Delivery is reliable and in order: every repeat that arrives at all does so before the
+    // first warm-up sample.
+    sample[5] = std::byte{0xFF};
     ASSERT_TRUE(eventually([&] {
-      const std::size_t before = [&] {
-        std::lock_guard<std::mutex> lock(mutex);
-        return received.size();
-      }();
+      const std::size_t before = count_received();
       if (writer.value()->write(sample.data(), static_cast<std::uint32_t>(sample.size())) != Status::ok) return false;
-      return eventually(
-          [&] {
-            std::lock_guard<std::mutex> lock(mutex);
-            return received.size() > before;
-          },
-          std::chrono::milliseconds(200));
+      return eventually([&] { return arrived(sample[4], std::byte{0xFF}, before); }, std::chrono::milliseconds(200));
     })) << "no sample reached domain 157";
+    sample[5] = std::byte{0};
     send_and_wait(50);  // warm-up
     const std::uint64_t callbacks_before = test::g_callbacks.load();
     const std::uint64_t polyport_before = test::g_polyport_allocations.load();

@@ -284,8 +284,19 @@ TEST_F(ProfileLoader, XmlSyntaxError) {
 TEST_F(ProfileLoader, DoubleHyphenInACommentIsASyntaxError) {
   EXPECT_FALSE(load("invalid/comment_dashes.xml").has_value());
   EXPECT_EQ(messages(), (std::vector<std::string>{
-      "invalid/comment_dashes.xml:5:17: XML syntax error: '--' is not allowed inside a comment",
-      "invalid/comment_dashes.xml:8:24: XML syntax error: a comment must not end in '-' before its '-->'",
+      "invalid/comment_dashes.xml:5:17: XML syntax error: '--' is not allowed inside a comment (nor a '-' right "
+      "before its '-->')",
+      "invalid/comment_dashes.xml:8:24: XML syntax error: '--' is not allowed inside a comment (nor a '-' right "
+      "before its '-->')",
+  }));
+}
+
+// CRLF line ends: the place is counted in the file as written.
+TEST_F(ProfileLoader, DoubleHyphenInACrlfCommentIsReportedWhereItIs) {
+  EXPECT_FALSE(load("invalid/comment_dashes_crlf.xml").has_value());
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      "invalid/comment_dashes_crlf.xml:3:45: XML syntax error: '--' is not allowed inside a comment (nor a '-' "
+      "right before its '-->')",
   }));
 }
 

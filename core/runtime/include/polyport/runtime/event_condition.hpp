@@ -25,6 +25,7 @@
 #include "polyport/base/result.hpp"
 #include "polyport/base/status.hpp"
 #include "polyport/profile/condition_spec.hpp"
+#include "polyport/runtime/pi_mutex.hpp"
 #include "polyport/types/types.hpp"
 
 namespace polyport {
@@ -113,7 +114,10 @@ class EventCondition {
   std::unique_ptr<double[]> last_thresholds_;
   // The generation a single-shot activation fired for (written by the writer only).
   std::atomic<std::uint64_t> spent_{~std::uint64_t{0}};
-  std::mutex activating_;  // activations among themselves; the writer never takes it
+  // Activations among themselves (the client's thread, perhaps real-time, and the control
+  // thread for polyportctl): priority inheritance, so an ordinary holder cannot keep a
+  // real-time client waiting. The writer never takes it.
+  PiMutex activating_;
   ConditionCounters counters_;
 };
 
