@@ -611,6 +611,19 @@ class CdrCodec final : public Codec {
     return {CodecError::ok, static_cast<std::uint32_t>(total), 0};
   }
 
+  // One block from the flat sample's first byte to its last, nothing else: decode copies the
+  // body as it is (the block starts the body, so it needs no alignment) and zeroes nothing.
+  InPlaceLayout in_place() const noexcept override {
+    const std::vector<Instr>& code = program_.code;
+    const bool one_block = code.size() == 2 && code[0].op == OpCode::block && code[0].offset == 0 &&
+                           code[0].count == program_.root_size && code[1].op == OpCode::end;
+    if (!one_block || program_.root_size == 0 || program_.zero_fill || tolerate_trailing_ ||
+        program_.appendable_root) {
+      return {};
+    }
+    return {program_.root_size, kNativeLittle ? little_id_ : big_id_};
+  }
+
   std::uint32_t max_wire_size(std::uint32_t flat_capacity) const noexcept override {
     const std::uint64_t tail =
         flat_capacity > program_.root_size ? flat_capacity - program_.root_size : 0;

@@ -27,13 +27,17 @@ std::unique_ptr<SampleBuffer> make_buffer(QueuePolicy policy, std::uint32_t dept
 
 Connection::Connection(DataOutPort& source, DataInPort& target, QueuePolicy policy, std::uint32_t depth,
                        const MappingProgram* mapping)
-    : source_(source),
-      target_(target),
-      policy_(policy),
-      depth_(policy == QueuePolicy::data ? 1 : depth),
-      buffer_(target.sink() ? nullptr : make_buffer(policy, depth_, target.max_sample_bytes())),
+    : target_(target),
+      buffer_(target.sink() ? nullptr
+                            : make_buffer(policy, policy == QueuePolicy::data ? 1 : depth, target.max_sample_bytes())),
       mapping_(mapping),
-      converts_(mapping != nullptr || source.wire_format() != target.wire_format() || source.type() != target.type()) {
+      source_codec_(source.codec()),
+      target_codec_(target.codec()),
+      policy_(policy),
+      converts_(mapping != nullptr || source.wire_format() != target.wire_format() || source.type() != target.type()),
+      source_(source),
+      depth_(policy == QueuePolicy::data ? 1 : depth) {
+  if (buffer_ && policy == QueuePolicy::data) latest_ = static_cast<LatestValueBuffer*>(buffer_.get());
   if (!converts_) return;
   // Flat samples of either type, with the larger port's room for unbounded tails.
   flat_capacity_ = std::max(source.max_sample_bytes(), target.max_sample_bytes());
@@ -43,6 +47,9 @@ Connection::Connection(DataOutPort& source, DataInPort& target, QueuePolicy poli
   if (source.codec()) decoded_ = std::make_unique<std::byte[]>(flat_capacity_);
   if (mapping_) mapped_ = std::make_unique<std::byte[]>(flat_capacity_);
   if (target.codec()) encoded_ = std::make_unique<std::byte[]>(wire_capacity_);
+  // Taking the flat sample in place, only to copy it into the buffer: a sink, a mapping or an
+  // encoder would read it where the wire put it, maybe misaligned.
+  if (source.codec() && !mapping_ && !target.codec() && buffer_) in_place_ = source.codec()->in_place();
 }
 
 std::string Connection::name() const { return source_.full_name() + " -> " + target_.full_name(); }
@@ -58,8 +65,11 @@ std::string Connection::conversion() const {
 
 void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept {
   counters_.received.fetch_add(1, std::memory_order_relaxed);
-  if (const std::uint32_t gate = gate_.load(std::memory_order_relaxed); gate != 0 && !subscription_turn(gate)) return;
-  if (watchdog_) {
+  if (const std::uint32_t gate = gate_.load(std::memory_order_relaxed); gate != 0 && !subscription_turn(gate))
+      [[unlikely]] {
+    return;
+  }
+  if (watchdog_) [[unlikely]] {
     // The source wrote this sample now; what can make it unusable is a silent upstream or
     // its own age.
     // A replaced sample is a drop (stale); the safe value that goes instead is counted by the
@@ -72,7 +82,7 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
       return;
     }
   }
-  if (!converts_ && deadbands_.empty() && !condition_) {
+  if (!converts_ && !filtered_ && !condition_) {
     forward(data, meta);
     return;
   }
@@ -80,7 +90,11 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
   const std::byte* bytes = data;
   // The source's flat sample: what a deadband or a condition compares and a conversion
   // starts from.
-  if (const Codec* codec = source_.codec()) {
+  if (const std::byte* flat = in_place_flat(in_place_, bytes, converted.size)) {
+    // The flat sample is the wire bytes after the header: nothing to decode (codec.hpp).
+    bytes = flat;
+    converted.size = in_place_.flat_size;
+  } else if (const Codec* codec = source_codec_) {
     const CodecResult decoded = codec->decode(bytes, converted.size, decoded_.get(), flat_capacity_);
     if (!decoded.ok()) {
       if (!converts_ && !condition_) {
@@ -93,7 +107,7 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
     bytes = decoded_.get();
     converted.size = decoded.size;
   }
-  if (!deadbands_.empty() && !passes_deadbands(bytes)) {
+  if (filtered_ && !passes_deadbands(bytes)) {
     counters_.dropped_filtered.fetch_add(1, std::memory_order_relaxed);
     return;
   }
@@ -111,7 +125,7 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
     bytes = mapped_.get();
     converted.size = mapped_size;
   }
-  if (const Codec* codec = target_.codec()) {
+  if (const Codec* codec = target_codec_) {
     const CodecResult encoded = codec->encode(bytes, converted.size, encoded_.get(), wire_capacity_);
     if (!encoded.ok()) {
       counters_.dropped_encode_error.fetch_add(1, std::memory_order_relaxed);
@@ -256,6 +270,7 @@ void Connection::set_rate_limit(Nanos interval) {
 
 void Connection::set_deadbands(std::vector<DeadbandField> fields) {
   deadbands_ = std::move(fields);
+  filtered_ = !deadbands_.empty();
   deadband_last_.assign(deadbands_.size(), 0.0);
   deadband_now_.assign(deadbands_.size(), 0.0);
   need_source_flat();
@@ -268,6 +283,7 @@ void Connection::set_condition(std::unique_ptr<EventCondition> condition) {
 
 // A deadband or a condition reads the source's flat sample even where the bytes pass through.
 void Connection::need_source_flat() {
+  in_place_ = {};  // deadbands and conditions read the flat sample's numbers: decode it
   if (source_.codec() && !decoded_) {
     flat_capacity_ = std::max(source_.max_sample_bytes(), source_.type() ? source_.type()->size : 0u);
     decoded_ = std::make_unique<std::byte[]>(flat_capacity_);
@@ -347,7 +363,7 @@ void Connection::hand_over_claimed(const std::byte* data, const SampleMeta& meta
     }
     return;
   }
-  const PushResult result = buffer_->push(data, meta);
+  const PushResult result = latest_ ? latest_->push_direct(data, meta) : buffer_->push(data, meta);
   const MonoTime stored = mono_now();
   latency_.record((stored - meta.t_in).count);
   if (meta.t_source.ns != 0) transit_.record((stored - meta.t_source).count);

@@ -22,8 +22,13 @@ ConnectionSet::ConnectionSet() { publish({}); }
 void ConnectionSet::publish(const std::vector<Connection*>& items) {
   auto list = std::make_unique<List>();
   list->size = items.size();
-  list->items = std::make_unique<Connection*[]>(items.size() + 1);
-  std::copy(items.begin(), items.end(), list->items.get());
+  Connection** storage = list->inline_;
+  if (items.size() > List::kInline) {
+    list->spill_ = std::make_unique<Connection*[]>(items.size());
+    storage = list->spill_.get();
+  }
+  std::copy(items.begin(), items.end(), storage);
+  list->items = storage;
   current_.store(list.get(), std::memory_order_release);
   retained_.push_back(std::move(list));
 }

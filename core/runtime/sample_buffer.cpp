@@ -91,6 +91,10 @@ std::byte* LatestValueBuffer::slot_data(std::uint8_t index) const noexcept {
 }
 
 PushResult LatestValueBuffer::push(const std::byte* data, const SampleMeta& meta) noexcept {
+  return push_direct(data, meta);
+}
+
+PushResult LatestValueBuffer::push_direct(const std::byte* data, const SampleMeta& meta) noexcept {
   if (meta.size > slot_bytes_) return PushResult::too_large;
   // The write slot is the writer's alone: fill it without any synchronisation.
   slot(write_index_).meta = meta;

@@ -426,6 +426,102 @@ TEST_F(CdrCodecHeader, UpToThreeUnannouncedTrailingBytes) {
                      CodecError::trailing_bytes);
 }
 
+// ---- samples taken in place (InPlaceLayout) -------------------------------------------------
+
+class CdrCodecInPlace : public CdrCodecTest {};
+
+// Where in_place_flat() hands out the bytes after the header, decode() accepts the sample and
+// gives exactly those bytes; wherever decode() refuses it or must convert, it hands out none.
+TEST_F(CdrCodecInPlace, OnlyWhereDecodeWouldCopyTheSampleAsItIs) {
+  const Type& type = parse("struct Ref { double direction_deg; double speed_mps; };", "Ref");
+  for (WireFormat format : {WireFormat::xcdr1, WireFormat::xcdr2}) {
+    const Codec& cdr = codec(type, format);
+    const InPlaceLayout layout = cdr.in_place();
+    ASSERT_EQ(layout.flat_size, type.size);
+    Flat flat(type);
+    flat.put<double>(0, 12.5);
+    flat.put<double>(8, -0.75);
+    const Bytes good = encode(cdr, flat);
+    ASSERT_EQ(good.size(), 4u + type.size);
+    const std::uint8_t little = good[1];  // 01 (XCDR1) or 07 (XCDR2)
+    Bytes big = good;
+    big[1] = static_cast<std::uint8_t>(little - 1);
+    for (std::size_t i = 0; i < 8; ++i) {
+      big[4 + i] = good[4 + 7 - i];
+      big[12 + i] = good[12 + 7 - i];
+    }
+    struct Case {
+      const char* what;
+      Bytes wire;
+      bool in_place;
+      CodecError decoded;
+    };
+    std::vector<Case> cases;
+    cases.push_back({"as encoded", good, true, CodecError::ok});
+    Bytes trailing = good;
+    trailing.insert(trailing.end(), {0, 0, 0});
+    cases.push_back({"3 unannounced trailing bytes", trailing, true, CodecError::ok});
+    Bytes announced = trailing;
+    announced[3] = 3;
+    cases.push_back({"3 announced padding bytes", announced, true, CodecError::ok});
+    trailing.push_back(0);
+    cases.push_back({"4 trailing bytes", trailing, false, CodecError::trailing_bytes});
+    cases.push_back({"big-endian", big, false, CodecError::ok});
+    cases.push_back({"truncated", Bytes(good.begin(), good.end() - 1), false, CodecError::truncated});
+    cases.push_back({"header only", Bytes(good.begin(), good.begin() + 4), false, CodecError::truncated});
+    cases.push_back({"half a header", Bytes(good.begin(), good.begin() + 2), false, CodecError::truncated});
+    Bytes eaten = good;
+    eaten[3] = 1;
+    cases.push_back({"padding eats the sample", eaten, false, CodecError::truncated});
+    Bytes other = good;
+    other[1] = format == WireFormat::xcdr1 ? 0x07 : 0x01;
+    cases.push_back({"the other version's identifier", other, false, CodecError::bad_header});
+    for (const Case& item : cases) {
+      const auto* wire = reinterpret_cast<const std::byte*>(item.wire.data());
+      const auto size = static_cast<std::uint32_t>(item.wire.size());
+      const std::byte* in_place = in_place_flat(layout, wire, size);
+      Flat out(type);
+      const CodecResult result = decode(cdr, item.wire, out);
+      EXPECT_CODEC_ERROR(result.error, item.decoded) << to_string(format) << ": " << item.what;
+      EXPECT_EQ(in_place != nullptr, item.in_place) << to_string(format) << ": " << item.what;
+      if (in_place == nullptr) continue;
+      EXPECT_EQ(in_place, wire + 4);
+      EXPECT_EQ(result.size, layout.flat_size);
+      EXPECT_EQ(std::memcmp(in_place, out.data(), layout.flat_size), 0) << item.what;
+      EXPECT_EQ(std::memcmp(in_place, flat.data(), layout.flat_size), 0) << item.what;
+    }
+  }
+}
+
+TEST_F(CdrCodecInPlace, OnlyStructsWhoseWireFormIsTheFlatSample) {
+  struct Case {
+    const char* idl;
+    const char* name;
+    bool xcdr1;
+    bool xcdr2;
+  };
+  for (const Case& item : {
+           Case{"struct A { double a; double b; };", "A", true, true},
+           Case{"struct B { long a; unsigned long b; float c; };", "B", true, true},
+           Case{"struct C { octet x; };", "C", true, true},
+           Case{"struct D { long a; double b; };", "D", false, false},  // padding in flat
+           Case{"struct E { float a[4]; };", "E", true, true},
+           Case{"struct F { boolean b; };", "F", false, false},  // checked on decode
+           Case{"enum Color { red, green }; struct G { Color c; };", "G", false, false},
+           Case{"struct H { string s; };", "H", false, false},
+           Case{"struct I { sequence<double, 4> v; };", "I", false, false},
+           Case{"@appendable struct J { double a; };", "J", false, false},
+           Case{"struct K { double a; }; struct L { K k; double b; };", "L", true, true},
+       }) {
+    const Type& type = parse(item.idl, item.name);
+    EXPECT_EQ(codec(type, WireFormat::xcdr1).in_place().flat_size != 0, item.xcdr1) << item.idl;
+    EXPECT_EQ(codec(type, WireFormat::xcdr2).in_place().flat_size != 0, item.xcdr2) << item.idl;
+    if (codec(type, WireFormat::xcdr1).in_place().flat_size != 0) {
+      EXPECT_EQ(codec(type, WireFormat::xcdr1).in_place().flat_size, type.size) << item.idl;
+    }
+  }
+}
+
 TEST_F(CdrCodecHeader, FormatsOtherThanCdrAreRefused) {
   for (WireFormat format : {WireFormat::flat, WireFormat::lcm, WireFormat::dbc}) {
     const auto made = make_cdr_codec(*final_, format);

@@ -3,7 +3,9 @@
 
 #include <atomic>
 #include <cstring>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "polyport/runtime/component.hpp"
 #include "polyport/runtime/connection.hpp"
@@ -177,6 +179,41 @@ TEST(DataConnection, FanOutDeliversToEveryConnection) {
   out.write(&v, sizeof v);
   EXPECT_EQ(c2.counters().received.load(), 1u);
   EXPECT_EQ(c1.counters().received.load(), 2u);
+}
+
+// More connections than a port's list holds in its own cache line (they spill to the heap),
+// and back to fewer.
+TEST(DataConnection, FanOutToManyConnectionsAndBack) {
+  constexpr int kCount = 7;
+  Component a{"A", "inproc"};
+  Component b{"B", "inproc"};
+  auto& out = a.add_port<DataOutPort>("out", PortKind::data, nullptr, kBytes);
+  std::vector<DataInPort*> ins;
+  std::vector<std::unique_ptr<Connection>> connections;
+  for (int i = 0; i < kCount; ++i) {
+    ins.push_back(&b.add_port<DataInPort>("in" + std::to_string(i), PortKind::data, nullptr, kBytes, QueuePolicy::data, 1));
+    connections.push_back(std::make_unique<Connection>(out, *ins.back(), QueuePolicy::data, 1));
+    out.connections().add(*connections.back());
+    ins.back()->connections().add(*connections.back());
+  }
+  ASSERT_EQ(out.connections().size(), static_cast<std::size_t>(kCount));
+  std::uint64_t v = 11;
+  out.write(&v, sizeof v);
+  for (int i = 0; i < kCount; ++i) {
+    std::uint64_t r = 0;
+    EXPECT_EQ(ins[i]->read(&r, sizeof r), Status::ok) << i;
+    EXPECT_EQ(r, 11u) << i;
+  }
+  for (int i = 0; i < 4; ++i) out.connections().remove(*connections[i]);
+  ASSERT_EQ(out.connections().size(), 3u);
+  v = 12;
+  out.write(&v, sizeof v);
+  for (int i = 0; i < kCount; ++i) {
+    std::uint64_t r = 0;
+    EXPECT_EQ(ins[i]->read(&r, sizeof r), i < 4 ? Status::old_data : Status::ok) << i;
+    EXPECT_EQ(r, i < 4 ? 11u : 12u) << i;
+    EXPECT_EQ(connections[i]->counters().received.load(), i < 4 ? 1u : 2u) << i;
+  }
 }
 
 // A producer much faster than its consumer, on two threads: nothing torn, nothing

@@ -218,6 +218,66 @@ TEST_P(MalformedSamples, AreCountedAndDroppedAndTheConnectionGoesOn) {
   EXPECT_EQ(c.counters().delivered.load(), 2u);
 }
 
+// A struct of doubles in XCDR1 needs no decoding in the host's byte order (the connection
+// takes it after the header, codec.hpp's InPlaceLayout); the other byte order is decoded.
+// Either way the reader gets the same values, and a deadband on the source still compares
+// them.
+TEST_F(MalformedSamples, PlainCdrSamplesReachTheReaderInEitherByteOrder) {
+  const Type& type = type_for(WireFormat::xcdr1);
+  auto codec = make_codec(WireFormat::xcdr1, type);
+  ASSERT_TRUE(codec) << codec.error().message;
+  ASSERT_EQ(codec.value()->in_place().flat_size, type.size);
+  for (const bool deadband : {false, true}) {
+    Component src{"S", "foreign"};
+    Component dst{"D", "inproc"};
+    auto& out = src.add_port<DataOutPort>("out", PortKind::data, &type, 256);
+    auto& in = dst.add_port<DataInPort>("in", PortKind::data, &type, type.size, QueuePolicy::buffer, 4);
+    out.set_wire_format(WireFormat::xcdr1, codec.value().get());
+    Connection c(out, in, QueuePolicy::buffer, 4);
+    if (deadband) c.set_deadbands({DeadbandField{8, TypeKind::float64, 0.5, "b"}});
+    out.connections().add(c);
+    in.connections().add(c);
+    const double values[2] = {7, 9};
+    std::byte little[64];
+    const CodecResult good = codec.value()->encode(reinterpret_cast<const std::byte*>(values), sizeof values,
+                                                   little, sizeof little);
+    ASSERT_TRUE(good.ok());
+    // The same sample big-endian: identifier 0x0000, each double's bytes reversed.
+    std::byte big[64];
+    std::memcpy(big, little, good.size);
+    big[1] = std::byte{0};
+    for (int field = 0; field < 2; ++field) {
+      for (int i = 0; i < 8; ++i) big[4 + 8 * field + i] = little[4 + 8 * field + 7 - i];
+    }
+    // A third that moved b by less than the deadband.
+    const double close[2] = {1, 9.25};
+    std::byte near[64];
+    ASSERT_TRUE(codec.value()->encode(reinterpret_cast<const std::byte*>(close), sizeof close, near, sizeof near).ok());
+    out.write(little, good.size);
+    out.write(big, good.size);
+    out.write(near, good.size);
+    double got[2] = {0, 0};
+    ASSERT_EQ(in.read(got, sizeof got), Status::ok) << "deadband " << deadband;
+    EXPECT_EQ(got[0], 7.0);
+    EXPECT_EQ(got[1], 9.0);
+    if (deadband) {
+      // The big-endian copy moved nothing; neither did the third.
+      EXPECT_EQ(in.read(got, sizeof got), Status::no_data);
+      EXPECT_EQ(c.counters().dropped_filtered.load(), 2u);
+      continue;
+    }
+    got[0] = got[1] = 0;
+    ASSERT_EQ(in.read(got, sizeof got), Status::ok);
+    EXPECT_EQ(got[0], 7.0);
+    EXPECT_EQ(got[1], 9.0);
+    ASSERT_EQ(in.read(got, sizeof got), Status::ok);
+    EXPECT_EQ(got[0], 1.0);
+    EXPECT_EQ(got[1], 9.25);
+    EXPECT_EQ(c.counters().delivered.load(), 3u);
+    EXPECT_EQ(c.counters().dropped(), 0u);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Formats, MalformedSamples,
                          ::testing::Values(WireFormat::xcdr1, WireFormat::xcdr2, WireFormat::lcm, WireFormat::dbc),
                          [](const auto& param_info) { return std::string(to_string(param_info.param)); });

@@ -7,6 +7,7 @@
 // number of threads may use it at once.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <string_view>
@@ -46,6 +47,37 @@ struct CodecResult {
   bool ok() const noexcept { return error == CodecError::ok; }
 };
 
+// A type whose CDR form is the flat sample itself: a struct of primitives laid out alike in
+// both (no padding, no booleans or enums to check, nothing variable), final. In the host's
+// byte order such a sample is the 4-byte encapsulation header, then exactly the flat bytes,
+// then at most 3 bytes of padding; decode() would only copy it. A caller that only copies
+// the flat sample on (Connection, into its buffer) may take the bytes where they lie instead,
+// touching neither the codec nor its program: on a path that runs every few milliseconds,
+// each of those cache lines comes from memory.
+struct InPlaceLayout {
+  std::uint32_t flat_size = 0;  // the type's size; 0: no sample of this codec is in place
+  std::uint16_t id = 0;         // the encapsulation identifier for the host's byte order
+};
+
+// The flat sample inside `wire` when decode() would give exactly its bytes (and flat_size
+// as the size); null when decode() must run: another byte order or identifier, a size that
+// decode() refuses. The checks are decode()'s own (cdr_codec.cpp).
+inline const std::byte* in_place_flat(const InPlaceLayout& layout, const std::byte* wire,
+                                      std::uint32_t wire_size) noexcept {
+  constexpr std::uint32_t kHeader = 4;
+  if (layout.flat_size == 0 || wire_size < kHeader) return nullptr;
+  const auto id = static_cast<std::uint16_t>(std::to_integer<unsigned>(wire[0]) << 8 |
+                                             std::to_integer<unsigned>(wire[1]));
+  if (id != layout.id) return nullptr;
+  const std::uint32_t padding = std::to_integer<std::uint32_t>(wire[3]) & 3u;
+  const std::uint32_t body = wire_size - kHeader;
+  if (padding > body) return nullptr;
+  const std::uint32_t size = body - padding;
+  // Short: truncated; more than 3 bytes after the sample: trailing_bytes.
+  if (size < layout.flat_size || size - layout.flat_size > 3) return nullptr;
+  return wire + kHeader;
+}
+
 class Codec {
  public:
   virtual ~Codec() = default;
@@ -61,6 +93,8 @@ class Codec {
                              std::uint32_t wire_capacity) const noexcept = 0;
   // The largest encoded size of a sample whose flat form fits `flat_capacity` bytes.
   virtual std::uint32_t max_wire_size(std::uint32_t flat_capacity) const noexcept = 0;
+  // See InPlaceLayout; only the CDR codecs have one, for the types described there.
+  virtual InPlaceLayout in_place() const noexcept { return {}; }
 };
 
 // Each format's factory (cdr_codec.cpp, lcm_codec.cpp, dbc_codec.cpp). They refuse a type

@@ -78,11 +78,15 @@ class ConnectionSetObserver {
 // a new one. Old lists stay alive until the port dies, so a reader never sees freed memory.
 class ConnectionSet {
  public:
-  struct List {
+  // A port's few connections sit in the list's own cache line; more spill to the heap.
+  struct alignas(64) List {
+    static constexpr std::size_t kInline = 5;
     std::size_t size = 0;
-    std::unique_ptr<Connection*[]> items;
-    Connection* const* begin() const noexcept { return items.get(); }
-    Connection* const* end() const noexcept { return items.get() + size; }
+    Connection* const* items = nullptr;  // inline_ or spill_
+    Connection* inline_[kInline] = {};
+    std::unique_ptr<Connection*[]> spill_;
+    Connection* const* begin() const noexcept { return items; }
+    Connection* const* end() const noexcept { return items + size; }
   };
 
   ConnectionSet();
@@ -104,7 +108,8 @@ class ConnectionSet {
 
 class PushServer;
 
-class DataOutPort final : public Port {
+// Aligned so that what write() touches (below Port's fields) shares one cache line.
+class alignas(64) DataOutPort final : public Port {
  public:
   DataOutPort(Component& owner, std::string name, PortKind kind, const Type* type,
               std::uint32_t max_sample_bytes);
@@ -113,9 +118,9 @@ class DataOutPort final : public Port {
   // Forwards one sample to every connection. Returns not_connected when there is none
   // (the sample is counted and dropped). Safe to call from one thread at a time. A push
   // port goes through its server first (not_active while it is stopped).
-  Status write(const void* data, std::uint32_t size, MonoTime t_source = {}) noexcept;
+  [[gnu::hot]] Status write(const void* data, std::uint32_t size, MonoTime t_source = {}) noexcept;
   // write() without the push server's part: the push server's own way out.
-  Status forward(const void* data, std::uint32_t size, MonoTime t_source) noexcept;
+  [[gnu::hot]] Status forward(const void* data, std::uint32_t size, MonoTime t_source) noexcept;
   // Push newest / push timed (push_server.hpp); null for a plain port. Set before wiring.
   PushServer* push() const noexcept { return push_.get(); }
   void set_push(std::unique_ptr<PushServer> push);
@@ -128,12 +133,14 @@ class DataOutPort final : public Port {
   ConnectionSet& connections() noexcept { return connections_; }
 
  private:
+  // Every write: in one cache line with Port's codec (the push server, the counters, the
+  // connection list's pointer first in ConnectionSet).
   std::uint32_t max_sample_bytes_;
-  ConnectionSet connections_;
   std::atomic<std::uint64_t> written_{0};
   std::atomic<std::uint64_t> unconnected_{0};
   std::atomic<std::int64_t> last_write_{0};
   std::unique_ptr<PushServer> push_;
+  ConnectionSet connections_;
 };
 
 // Where a push-mode input port delivers, on the writer's thread.

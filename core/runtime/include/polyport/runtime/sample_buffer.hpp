@@ -52,7 +52,11 @@ class SampleBuffer {
 class LatestValueBuffer final : public SampleBuffer {
  public:
   explicit LatestValueBuffer(std::uint32_t slot_bytes);
-  PushResult push(const std::byte* data, const SampleMeta& meta) noexcept override;
+  [[gnu::hot]] PushResult push(const std::byte* data, const SampleMeta& meta) noexcept override;
+  // push() for Connection, bound directly inside the library (hidden: no PLT stub and GOT
+  // entry to fetch; see connection.hpp).
+  [[gnu::hot, gnu::visibility("hidden")]] PushResult push_direct(const std::byte* data,
+                                                                 const SampleMeta& meta) noexcept;
   PopResult pop(std::byte* dst, std::uint32_t capacity, SampleMeta& meta) noexcept override;
   std::uint32_t slot_bytes() const noexcept override { return slot_bytes_; }
   std::uint32_t depth() const noexcept override { return 1; }
