@@ -123,6 +123,15 @@ Json buckets_json(const LatencyHistogram& histogram) {
   return out;
 }
 
+// One sample per counter of `j` named in `outcomes`, labelled outcome="<its name>".
+void add_by_outcome(Family& family, const Labels& labels, const Json& j, std::initializer_list<const char*> outcomes) {
+  for (const char* outcome : outcomes) {
+    Labels with_outcome = labels;
+    with_outcome.emplace_back("outcome", outcome);
+    family.add(with_outcome, count_of(j, outcome));
+  }
+}
+
 }  // namespace
 
 const std::vector<std::int64_t>& histogram_bounds_ns() {
@@ -243,11 +252,7 @@ std::string render_prometheus(const Json& stats) {
       const Json& k = c["condition"];
       Family& events = e.family("polyport_condition_events_total", "counter",
                                 "Events an event condition saw, by what became of them (docs/PROFILES.md).");
-      for (const char* outcome : {"fired", "suppressed", "inactive"}) {
-        Labels with_outcome = labels;
-        with_outcome.emplace_back("outcome", outcome);
-        events.add(with_outcome, count_of(k, outcome));
-      }
+      add_by_outcome(events, labels, k, {"fired", "suppressed", "inactive"});
       e.family("polyport_condition_activations_total", "counter", "Activations of the condition: the profile's initial one, the client's, polyportctl's.")
           .add(labels, count_of(k, "activations"));
       e.family("polyport_condition_active", "gauge", "1 while the condition is active.")
@@ -275,11 +280,7 @@ std::string render_prometheus(const Json& stats) {
     const Labels labels{{"service", c.value("name", "")}};
     Family& calls = e.family("polyport_service_calls_total", "counter",
                              "Calls over a service link, by outcome (docs/CONTROL.md).");
-    for (const char* outcome : {"ok", "timeouts", "errors", "not_connected", "too_many_calls", "cancelled"}) {
-      Labels with_outcome = labels;
-      with_outcome.emplace_back("outcome", outcome);
-      calls.add(with_outcome, count_of(c, outcome));
-    }
+    add_by_outcome(calls, labels, c, {"ok", "timeouts", "errors", "not_connected", "too_many_calls", "cancelled"});
     e.family("polyport_service_provider_rejected_total", "counter", "Calls the provider refused.")
         .add(labels, count_of(c, "provider_rejected"));
     e.family("polyport_service_latency_seconds", "histogram", "Time from a call to its reply, for calls a reply ended.")

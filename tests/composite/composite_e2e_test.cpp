@@ -27,11 +27,7 @@ namespace {
 constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
 constexpr int kRelayOffset = 100000;  // PoseRelay (tests/plugins) adds it to each id
 
-struct Ctl {
-  int code = -1;
-  std::string out, err;
-  Json json() const { return Json::parse(out, nullptr, false); }
-};
+using Ctl = DaemonTest::Ran;
 
 class CompositeEndToEnd : public DaemonTest {
  protected:
@@ -49,15 +45,7 @@ class CompositeEndToEnd : public DaemonTest {
   Ctl run(const char* program, const std::vector<std::string>& args) {
     std::vector<std::string> all{program};
     all.insert(all.end(), args.begin(), args.end());
-    const std::string tag = "cmd-" + std::to_string(++calls_);
-    Ctl result;
-    {
-      Child child(dir(), tag, all);
-      result.code = child.wait(30s);
-    }
-    result.out = read_file(dir() / (tag + ".out"));
-    result.err = read_file(dir() / (tag + ".err"));
-    return result;
+    return run_to_end(all);
   }
   Ctl ctl(std::vector<std::string> args) {
     args.insert(args.begin(), {"--socket", socket_.string()});
@@ -79,7 +67,6 @@ class CompositeEndToEnd : public DaemonTest {
 
   fs::path app_;
   fs::path socket_;
-  int calls_ = 0;
 };
 
 // What each of Pipeline's names stands for, as check --json and list --json show it.

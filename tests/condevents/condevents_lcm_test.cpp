@@ -36,36 +36,17 @@ class ConditionEventsLcm : public DaemonTest {
   }
   // `polyportctl --json stats`, parsed (discarded when it failed).
   Json ctl_stats() {
-    const std::string tag = "ctl-" + std::to_string(++calls_);
-    int code = -1;
-    {
-      Child child(dir(), tag, {POLYPORTCTL, "--socket", socket_.string(), "--json", "stats"});
-      code = child.wait(30s);
-    }
-    if (code != 0) return Json::parse("x", nullptr, false);
-    return Json::parse(read_file(dir() / (tag + ".out")), nullptr, false);
+    const Ran stats = ctl({"--json", "stats"});
+    return stats.code == 0 ? stats.json() : Json::parse("x", nullptr, false);
   }
 
-  // `polyportctl ARGS...`: exit code, stdout and stderr.
-  struct Ctl {
-    int code = -1;
-    std::string out, err;
-  };
-  Ctl ctl(std::vector<std::string> args) {
-    const std::string tag = "ctl-" + std::to_string(++calls_);
+  // `polyportctl ARGS...` on the daemon's socket.
+  Ran ctl(std::vector<std::string> args) {
     args.insert(args.begin(), {POLYPORTCTL, "--socket", socket_.string()});
-    Ctl result;
-    {
-      Child child(dir(), tag, args);
-      result.code = child.wait(30s);
-    }
-    result.out = read_file(dir() / (tag + ".out"));
-    result.err = read_file(dir() / (tag + ".err"));
-    return result;
+    return run_to_end(args);
   }
 
   fs::path socket_;
-  int calls_ = 0;
 };
 
 Json condition_of(const Json& stats, const std::string& name) {
@@ -174,10 +155,10 @@ TEST_F(ConditionEventsLcm, PolyportctlSwitchesAForeignClientsCondition) {
   EXPECT_TRUE(poses(*client).empty());
 
   // Refused, with the reason, and nothing changed.
-  Ctl bad = ctl({"condition", "client.event", "on", "--param", "max_y=3"});
+  Ran bad = ctl({"condition", "client.event", "on", "--param", "max_y=3"});
   EXPECT_EQ(bad.code, 1) << bad.out << bad.err;
   EXPECT_NE(bad.err.find("their parameters: 'min_x'"), std::string::npos) << bad.err;
-  Ctl output = ctl({"condition", "server.state", "on"});
+  Ran output = ctl({"condition", "server.state", "on"});
   EXPECT_EQ(output.code, 1) << output.out << output.err;
   EXPECT_NE(output.err.find("no event input port 'server.state' (ports with conditions: client.event)"),
             std::string::npos) << output.err;
@@ -185,7 +166,7 @@ TEST_F(ConditionEventsLcm, PolyportctlSwitchesAForeignClientsCondition) {
   EXPECT_EQ(counter("activations"), 0);
 
   // On, with x > 2: states come through, each with x > 2.
-  Ctl on = ctl({"condition", "client.event", "on", "--param", "min_x=2"});
+  Ran on = ctl({"condition", "client.event", "on", "--param", "min_x=2"});
   ASSERT_EQ(on.code, 0) << on.err;
   EXPECT_EQ(on.out, link + ": continuous, x gt 2\n");
   ASSERT_TRUE(eventually([&] { return poses(*client).size() >= 10; }, 60s)) << client->errors();
@@ -193,7 +174,7 @@ TEST_F(ConditionEventsLcm, PolyportctlSwitchesAForeignClientsCondition) {
 
   // Off: once polyport counts states as inactive again, it delivers no more, and the client
   // gets exactly what polyport delivered.
-  Ctl off = ctl({"condition", "client.event", "off", "--single"});
+  Ran off = ctl({"condition", "client.event", "off", "--single"});
   EXPECT_EQ(off.code, 2) << "--single goes with on only";
   off = ctl({"condition", "client.event", "off"});
   ASSERT_EQ(off.code, 0) << off.err;
@@ -209,7 +190,7 @@ TEST_F(ConditionEventsLcm, PolyportctlSwitchesAForeignClientsCondition) {
 
   // A single shot: exactly one more state, then off by itself.
   const long long fired_before = counter("fired");
-  Ctl once = ctl({"condition", "client.event", "on", "--single", "--param", "min_x=2"});
+  Ran once = ctl({"condition", "client.event", "on", "--single", "--param", "min_x=2"});
   ASSERT_EQ(once.code, 0) << once.err;
   ASSERT_TRUE(eventually([&] { return counter("fired") == fired_before + 1; }, 60s));
   ASSERT_TRUE(eventually([&] { return poses(*client).size() == delivered_when_off + 1; }, 60s));

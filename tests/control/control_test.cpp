@@ -20,12 +20,7 @@ namespace {
 
 const fs::path kProfile = POLYPORT_SOURCE_DIR "/profiles/wheelchair_inproc.xml";
 
-struct Ctl {
-  int code = -1;
-  std::string out;
-  std::string err;
-  Json json() const { return Json::parse(out, nullptr, false); }
-};
+using Ctl = DaemonTest::Ran;
 
 // A connected raw client of the admin socket.
 class RawClient {
@@ -115,15 +110,7 @@ class Control : public DaemonTest {
     std::vector<std::string> all{POLYPORTCTL};
     if (with_socket) all.insert(all.end(), {"--socket", socket_.string()});
     all.insert(all.end(), args.begin(), args.end());
-    const std::string tag = "ctl-" + std::to_string(++calls_);
-    Ctl result;
-    {
-      Child child(dir(), tag, all);
-      result.code = child.wait(20s);
-    }
-    result.out = read_file(dir() / (tag + ".out"));
-    result.err = read_file(dir() / (tag + ".err"));
-    return result;
+    return run_to_end(all, 20s);
   }
   // The delivered counter of the connection from HW.wheel_speeds, read through polyportctl.
   std::uint64_t delivered() {
@@ -204,7 +191,6 @@ class Control : public DaemonTest {
 
   fs::path socket_;
   std::unique_ptr<Child> daemon_;
-  int calls_ = 0;
 };
 
 TEST_F(Control, HelloNamesTheDaemonAndItsApplication) {
@@ -581,20 +567,11 @@ class DefaultSocket : public DaemonTest {
   }
   Ctl ctl(std::vector<std::string> args) {
     args.insert(args.begin(), POLYPORTCTL);
-    const std::string tag = "ctl-" + std::to_string(++calls_);
-    Ctl result;
-    {
-      Child child(dir(), tag, args);
-      result.code = child.wait(20s);
-    }
-    result.out = read_file(dir() / (tag + ".out"));
-    result.err = read_file(dir() / (tag + ".err"));
-    return result;
+    return run_to_end(args, 20s);
   }
 
   fs::path runtime_;
   std::optional<std::string> saved_;
-  int calls_ = 0;
 };
 
 TEST_F(DefaultSocket, DaemonAndCtlMeetInTheRuntimeFolder) {

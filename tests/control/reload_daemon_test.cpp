@@ -13,18 +13,7 @@ namespace {
 
 const std::string kComponents = POLYPORT_SOURCE_DIR "/profiles/components/";
 
-struct Ctl {
-  int code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string contents(const fs::path& file) {
-  std::ifstream in(file);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using Ctl = DaemonTest::Ran;
 
 std::string data_connection(const std::string& source, const std::string& target) {
   const auto dot = [](const std::string& s) { return s.find('.'); };
@@ -72,15 +61,7 @@ class ReloadDaemon : public DaemonTest {
   }
   Ctl ctl(std::vector<std::string> args) {
     args.insert(args.begin(), {POLYPORTCTL, "--socket", socket_.string()});
-    const std::string tag = "ctl-" + std::to_string(++calls_);
-    Ctl result;
-    {
-      Child child(dir(), tag, args);
-      result.code = child.wait(20s);
-    }
-    result.out = contents(dir() / (tag + ".out"));
-    result.err = contents(dir() / (tag + ".err"));
-    return result;
+    return run_to_end(args, 20s);
   }
   Json json(const std::string& command) {
     const Ctl c = ctl({"--json", command});
@@ -106,7 +87,6 @@ class ReloadDaemon : public DaemonTest {
 
   fs::path socket_;
   std::unique_ptr<Child> daemon_;
-  int calls_ = 0;
 };
 
 TEST_F(ReloadDaemon, AddsAComponentAndConnectionsWhileAnUntouchedConnectionLosesNothing) {

@@ -17,11 +17,7 @@ namespace {
 const fs::path kProfile = POLYPORT_SOURCE_DIR "/profiles/wheelchair_inproc.xml";
 constexpr const char* kPython = "/usr/bin/python3";
 
-struct Outcome {
-  int code = -1;
-  std::string out;
-  std::string err;
-};
+using Outcome = DaemonTest::Ran;
 
 // One HTTP GET of `path` on 127.0.0.1:port, written by hand here so that the test does not
 // share the server's library: the status line and the body.
@@ -51,15 +47,7 @@ class Metrics : public DaemonTest {
 
   Outcome run(const std::string& program, std::vector<std::string> args) {
     args.insert(args.begin(), program);
-    const std::string tag = "run-" + std::to_string(++runs_);
-    Outcome result;
-    {
-      Child child(dir(), tag, args);
-      result.code = child.wait(30s);
-    }
-    result.out = read_file(dir() / (tag + ".out"));
-    result.err = read_file(dir() / (tag + ".err"));
-    return result;
+    return run_to_end(args);
   }
   Outcome ctl(std::vector<std::string> args) {
     args.insert(args.begin(), {"--socket", socket().string()});
@@ -93,7 +81,6 @@ class Metrics : public DaemonTest {
   fs::path socket() const { return dir() / "admin.sock"; }
 
  private:
-  int runs_ = 0;
 };
 
 TEST_F(Metrics, HistogramCountsEqualTheStatsAndScrapesDoNotDisturbForwarding) {

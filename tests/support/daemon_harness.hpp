@@ -225,9 +225,29 @@ class DaemonTest : public ::testing::Test {
   fs::path stats_file() const { return dir_ / "stats.json"; }
   const fs::path& dir() const { return dir_; }
 
+  // What a program run to its end in the test's folder gave: its exit code (-1: still
+  // running after `limit`), stdout and stderr (kept there as run-N.out / run-N.err).
+  struct Ran {
+    int code = -1;
+    std::string out, err;
+    Json json() const { return Json::parse(out, nullptr, false); }
+  };
+  Ran run_to_end(const std::vector<std::string>& argv, std::chrono::milliseconds limit = 30s) {
+    const std::string tag = "run-" + std::to_string(++runs_);
+    Ran result;
+    {
+      Child child(dir_, tag, argv);
+      result.code = child.wait(limit);
+    }
+    result.out = read_file(dir_ / (tag + ".out"));
+    result.err = read_file(dir_ / (tag + ".err"));
+    return result;
+  }
+
  private:
   std::string prefix_;
   fs::path dir_;
+  int runs_ = 0;
 };
 
 // The sums the in-process PeerCaller (tests/plugins) publishes, traced to a file by
