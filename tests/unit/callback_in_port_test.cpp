@@ -164,6 +164,12 @@ TEST_F(CallbackInPortEngine, BindsThePortInPushModeAndTheComponentAnswersFromThe
     // Echo's input is push mode (no buffer); Collector's, an InPort, stays pull.
     EXPECT_EQ(c["mode"], c["target"] == "echo.in" ? "push" : "pull") << c.dump();
   }
+  for (const auto& component : graph["components"]) {
+    for (const auto& port : component["ports"]) {
+      const bool callback = component["name"] == "echo" && port["name"] == "in";
+      EXPECT_EQ(port.value("mode", ""), callback ? "push" : "") << component["name"] << ": " << port.dump();
+    }
+  }
   std::vector<std::string> warnings;
   ASSERT_TRUE(engine.start(warnings));
   nlohmann::json stats;
