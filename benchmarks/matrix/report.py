@@ -147,6 +147,8 @@ def cell_text(pair):
     via = pair["via_polyport_one_way_ns"]
     relay = pair["via_native_relay_one_way_ns"]
     bars = pair["bars"]
+    if pair["from"] == pair["to"] == "inprocess":
+        return "via %s/%s\nping and pong\nin one polyportd" % (us(via["p50"]), us(via["p99"]))
     if "inprocess" in (pair["from"], pair["to"]):
         d = pair["direct_one_way_ns"] or {}
         return "via %s/%s\ndirect %s/%s\ndirect+2: %s" % (us(via["p50"]), us(via["p99"]), us(d.get("p50")),
@@ -193,6 +195,9 @@ def markdown(matrix, pairs, missing, json_name):
                         row.append("not measured" if not measurable(a, b) else "-")
                         continue
                     bars = q["bars"]
+                    if a == b == "inprocess":
+                        row.append("%s (ping and pong in one polyportd)" % us(q["via_polyport_one_way_ns"]["p50"]))
+                        continue
                     if "inprocess" in (a, b):
                         row.append("%s [%s] %s" % (us(q["via_polyport_one_way_ns"]["p50"]),
                                                    us((q["direct_one_way_ns"] or {}).get("p50")),
