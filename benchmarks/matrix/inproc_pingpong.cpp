@@ -20,6 +20,7 @@
 
 #include "pingpong_common.hpp"
 #include "polyport/runtime/component_api.hpp"
+#include "polyport/runtime/drain_gate.hpp"
 
 namespace bench_inproc {
 
@@ -59,10 +60,11 @@ using Pong1k = Pong<Ping1k>;
 // round up; on_pong runs on the pong's writer's thread: a foreign model's receive thread, or,
 // with an in-process pong, this very thread inside its own write() (the pong answers from its
 // callback). Each round is claimed once, by the compare-exchange on expected_ (the pong of
-// that round, or the timeout); the claimer asks for the next ping. Sending is a trampoline:
-// whoever finds pending_ at 0 sends, and sends again while requests came in meanwhile, so a
-// pong that comes back inside the write does not send from inside it (no recursion, one
-// writer of `ping` at a time, whichever thread).
+// that round, or the timeout); the claimer asks for the next ping. Sending is a trampoline
+// (core's DrainGate): a request that finds a send under way only counts itself and returns,
+// and the sending thread sends again once its write has returned, so a pong that comes back
+// inside the write does not send from inside it (no recursion, one writer of `ping` at a
+// time, whichever thread).
 template <class Sample>
 class PingComp final : public polyport::ComponentBase {
  public:
@@ -128,14 +130,14 @@ class PingComp final : public polyport::ComponentBase {
     request_send();
   }
   void request_send() {
-    if (pending_.fetch_add(1, std::memory_order_acq_rel) != 0) return;  // the sender on duty sends it
-    do {
+    sends_.run([this]() noexcept {
+      if (finished_.load(std::memory_order_acquire)) return;
       Sample ping{};
       ping.seq = expected_.load(std::memory_order_acquire);
       sent_at_.store(bench::now_ns(), std::memory_order_release);
       sent_seq_.store(ping.seq, std::memory_order_release);
       ping_.write(ping);  // an in-process pong's answer comes back inside this call
-    } while (pending_.fetch_sub(1, std::memory_order_acq_rel) != 1 && !finished_.load(std::memory_order_acquire));
+    });
   }
   void write_report() {
     std::vector<std::int64_t> rtt;
@@ -164,7 +166,7 @@ class PingComp final : public polyport::ComponentBase {
   std::atomic<std::uint64_t> expected_{0};    // the round whose pong is awaited
   std::atomic<std::uint64_t> sent_seq_{~0ull};
   std::atomic<std::int64_t> sent_at_{0};
-  std::atomic<int> pending_{0};               // send requests not served yet
+  polyport::DrainGate sends_;                 // one sender at a time, never nested
   std::atomic<bool> finished_{false};
   int lost_ = 0;                              // the context's thread only
   bool started_ = false, reported_ = false;   // the context's thread only
