@@ -23,9 +23,9 @@
 // beside it (the component lives inside the bridge), so its bar is via one-way p50 <=
 // direct(X) + 2 us. inprocess -> X is the in-process ping (inproc_pingpong.cpp: it sends the
 // next ping from the callback that takes the pong, and writes its percentiles to a file)
-// against X's pong program, with the same bar (X's direct series first, then the in-process
-// ping's one run: the ping is not a program, so its run cannot be cut into chunks that take
-// turns). The in-process diagonal is the ping and the pong inside one polyportd, the whole
+// against X's pong program, with the same bar (each chunk of the ping's series is a polyportd
+// run of its own, taking turns with X's direct chunks). The in-process diagonal is the ping
+// and the pong inside one polyportd, the whole
 // round trip on the ping's thread (the pong answers inside the ping's write): polyport's own
 // figure, with nothing to set beside it.
 //
@@ -312,79 +312,106 @@ std::string inproc_ping_component(const Model& side, int size, const bench::Chun
          "  </properties>\n  <ports>\n" + port("ping", "output") + port("pong", "input") + "  </ports>\n</component_profile>\n";
 }
 
-// inprocess -> X (X's pong program on domain 1; before it, X's direct series on domain 0) and
-// inprocess -> inprocess (`to` null: the in-process pong, same polyportd). The in-process
-// ping's series is its one run: the samples it wrote, its lost rounds, and the CPU time of
-// polyportd (where it runs) and of X's pong over the measured round trips.
+// One run of the in-process ping (a polyportd of its own, in `dir`): its samples, lost rounds
+// and CPU times added to `via`. The daemon's exit code, or -1 when the ping wrote no report.
+int run_inproc_ping(const fs::path& app, const fs::path& dir, const Placement& placement, pid_t pong, int rounds,
+                    int warmup, bench::Series& via) {
+  // The ping's CPU clocks: polyportd's own (the ping runs there), then the pong program's.
+  if (pong > 0) setenv("POLYPORT_BENCH_CPU_PIDS", std::to_string(pong).c_str(), 1);
+  const fs::path stats_file = dir / "polyport-stats.json";
+  const pid_t daemon = bench::spawn({POLYPORTD, "run", app.string(), "-q", "--stats-json", stats_file.string()},
+                                    dir / "polyportd.out", placement);
+  unsetenv("POLYPORT_BENCH_CPU_PIDS");
+  // The run ends when the ping has written its report; a lost pong costs it a second.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60 + (rounds + warmup) / 100);
+  while (!fs::exists(dir / "ping-via.json") && std::chrono::steady_clock::now() < deadline && !bench::interrupted()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));  // the file is written whole, then closed
+  const int daemon_rc = bench::finish(daemon, SIGINT, 20);
+  const Json report = Json::parse(bench::read_file(dir / "ping-via.json"), nullptr, false);
+  if (report.is_discarded() || !report.contains("one_way_ns")) {
+    if (via.error.empty()) {
+      via.error = "the in-process ping wrote no report (polyportd: " + bench::read_file(dir / "polyportd.out.err") + ")";
+    }
+    return -1;
+  }
+  std::istringstream samples(bench::read_file(dir / "ping-via.samples"));
+  for (std::int64_t rtt = 0, write = 0; samples >> rtt >> write;) via.rtt.push_back(rtt);
+  via.write.assign(via.rtt.size(), 0);
+  via.lost += report.value("lost", 0);
+  via.chunk_p50_one_way.push_back(report["one_way_ns"].value("p50", std::int64_t{0}));
+  if (via.cpu_roles.empty()) {
+    via.cpu_roles = pong > 0 ? std::vector<std::string>{"polyportd", "pong"} : std::vector<std::string>{"polyportd"};
+    via.cpu_ns.assign(via.cpu_roles.size(), 0);
+  }
+  const Json cpu = report.value("cpu_ns", Json::array());
+  for (std::size_t i = 0; i < via.cpu_ns.size(); ++i) {
+    const std::int64_t spent = i < cpu.size() && cpu[i].is_number_integer() ? cpu[i].get<std::int64_t>() : -1;
+    via.cpu_ns[i] = spent < 0 || via.cpu_ns[i] < 0 ? -1 : via.cpu_ns[i] + spent;
+  }
+  return daemon_rc;
+}
+
+// inprocess -> X (X's pong program on domain 1, X's direct series on domain 0) and inprocess ->
+// inprocess (`to` null: the in-process pong, same polyportd). The in-process ping is not a
+// program: each chunk of its series is one polyportd run (ping warm-up, then its share of the
+// round trips), taking turns with the direct series' chunks as run_case's series do.
+// polyport's own figures are the last chunk's polyportd's.
 Json run_from_inprocess(const Settings& s, const Placement& placement, const Model* to, int size, const Domains& d,
                         const fs::path& dir) {
   fs::create_directories(dir);
   const Model& side = to ? *to : model_named("cyclonedds");  // the diagonal's ports: the IDL type
+  const bench::Chunking& chunking = s.run.chunking;
+  const bench::Chunking one_chunk{chunking.per_chunk(), chunking.warmup, 1};
   Json c{{"placement", placement.name},
          {"from", kInprocess},
          {"to", to ? to->name : kInprocess},
          {"size_bytes", size},
          {"loadavg1_at_start", bench::load_average()},
          {"ping", std::string("in-process component ") + (size == 16 ? "Ping16Comp" : "Ping1kComp") +
-                      " (benchmarks/matrix/inproc_pingpong.cpp) in polyportd, one run of " +
-                      std::to_string(s.run.chunking.rounds) + " round trips after " +
-                      std::to_string(s.run.chunking.warmup) + " warm-up"},
-         {"native_relay", "none: an in-process component lives inside the bridge"}};
+                      " (benchmarks/matrix/inproc_pingpong.cpp), one polyportd run per chunk"},
+         {"native_relay", "none: an in-process component lives inside the bridge"},
+         {"polyport_figures", "the last chunk's polyportd"}};
   const std::string sz = std::to_string(size);
   const auto at = [&](int k) { return std::to_string(d.of(side, k)); };
-  const std::string ping_side = inproc_ping_component(side, size, s.run.chunking, dir);
-  const fs::path app =
-      to ? bench::write_pingpong_app(dir, "matrix_inprocess", to->types_file, ping_side,
-                                     component("PongSide", *to, d.of(*to, 1), size, false), "ping", "pong")
-         : bench::write_pingpong_app(dir, "matrix_inprocess", side.types_file, ping_side, inproc_pong_component(side, size),
-                                     "ping", "pong");
   if (to) {
     c["domains"] = {{"direct", d.of(*to, 0)}, {"via_pong", d.of(*to, 1)}};
-    c["comparison"] = "direct " + to->name + " <-> " + to->name + " (its own ping and pong programs), this case, first";
+    c["comparison"] = "direct " + to->name + " <-> " + to->name + " (its own ping and pong programs), this case";
   } else {
     c["comparison"] = "none: ping and pong are both inside polyportd";
   }
   const pid_t direct_pong = to ? bench::spawn({to->program, "pong", at(0), sz}, dir / "pong-direct.out", placement) : -1;
   const pid_t via_pong = to ? bench::spawn({to->program, "pong", at(1), sz}, dir / "pong-via.out", placement) : -1;
-  if (to) {
-    std::vector<bench::Path> direct{{"direct", {to->program, "ping", at(0), sz}, {{"pong", direct_pong}}, {}}};
-    bench::run_interleaved(s.run.chunking, placement, dir, direct);
-    c["direct"] = direct[0].series.to_json(s.run.chunking.chunks);
+  std::vector<bench::Path> direct;
+  if (to) direct.push_back({"direct", {to->program, "ping", at(0), sz}, {{"pong", direct_pong}}, {}});
+  bench::Series via;
+  int daemon_rc = -1;
+  fs::path last_chunk;
+  for (int k = 0; k < chunking.chunks && !bench::interrupted(); ++k) {
+    last_chunk = dir / ("chunk-" + std::to_string(k));
+    fs::create_directories(last_chunk);
+    const std::string ping_side = inproc_ping_component(side, size, one_chunk, last_chunk);
+    const fs::path app =
+        to ? bench::write_pingpong_app(last_chunk, "matrix_inprocess", to->types_file, ping_side,
+                                       component("PongSide", *to, d.of(*to, 1), size, false), "ping", "pong")
+           : bench::write_pingpong_app(last_chunk, "matrix_inprocess", side.types_file, ping_side,
+                                       inproc_pong_component(side, size), "ping", "pong");
+    // Taking turns at going first, as run_interleaved does.
+    if (k % 2 == 1 && to) bench::run_interleaved(one_chunk, placement, last_chunk, direct);
+    daemon_rc = run_inproc_ping(app, last_chunk, placement, via_pong, one_chunk.rounds, one_chunk.warmup, via);
+    if (k % 2 == 0 && to) bench::run_interleaved(one_chunk, placement, last_chunk, direct);
   }
-  // The ping's CPU clocks: polyportd's own (the ping runs there), then the pong program's.
-  if (to) setenv("POLYPORT_BENCH_CPU_PIDS", std::to_string(via_pong).c_str(), 1);
-  const fs::path stats_file = dir / "polyport-stats.json";
-  const pid_t daemon = bench::spawn({POLYPORTD, "run", app.string(), "-q", "--stats-json", stats_file.string()},
-                                    dir / "polyportd.out", placement);
-  unsetenv("POLYPORT_BENCH_CPU_PIDS");
-  // The run ends when the ping has written its report; a lost pong costs it a second.
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120) +
-                        std::chrono::seconds(s.run.chunking.rounds + s.run.chunking.warmup) / 100;
-  while (!fs::exists(dir / "ping-via.json") && std::chrono::steady_clock::now() < deadline && !bench::interrupted()) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the file is written whole, then closed
-  const int daemon_rc = bench::finish(daemon, SIGINT, 20);
   for (const pid_t pid : {direct_pong, via_pong}) {
     if (pid > 0) bench::finish(pid, SIGTERM, 10);
   }
   if (bench::interrupted()) return nullptr;
 
-  bench::Series via;
-  const Json report = Json::parse(bench::read_file(dir / "ping-via.json"), nullptr, false);
-  if (report.is_discarded() || !report.contains("rtt_ns")) {
-    via.error = "the in-process ping wrote no report (polyportd: " + bench::read_file(dir / "polyportd.out.err") + ")";
-  } else {
-    std::istringstream samples(bench::read_file(dir / "ping-via.samples"));
-    for (std::int64_t rtt = 0, write = 0; samples >> rtt >> write;) via.rtt.push_back(rtt);
-    via.write.assign(via.rtt.size(), 0);
-    via.lost = report.value("lost", 0);
-    via.cpu_roles = to ? std::vector<std::string>{"polyportd", "pong"} : std::vector<std::string>{"polyportd"};
-    for (const Json& ns : report["cpu_ns"]) via.cpu_ns.push_back(ns.get<std::int64_t>());
-  }
-  c["via_polyport"] = via.to_json(1);
+  if (to) c["direct"] = direct[0].series.to_json(chunking.chunks);
+  c["via_polyport"] = via.to_json(chunking.chunks);
   c["via_polyport"].erase("ping_write_ns");  // the in-process ping's write holds an in-process pong's answer
-  const std::int64_t worst = bench::read_polyport_stats(stats_file, daemon_rc, dir / "polyportd.out.err", c);
+  const std::int64_t worst =
+      bench::read_polyport_stats(last_chunk / "polyport-stats.json", daemon_rc, last_chunk / "polyportd.out.err", c);
   if (worst < 0 || !c["via_polyport"].contains("one_way_ns")) return c;  // no targets: the case failed
   const std::int64_t v50 = c["via_polyport"]["one_way_ns"]["p50"].get<std::int64_t>();
   c["targets"] = {{"via_one_way_p50_ns", v50},
