@@ -55,12 +55,22 @@ def verdict(v):
     return "n/a" if v is None else ("ok" if v else "MISS")
 
 
+def into_inprocess(case):
+    """X -> in-process or in-process -> X (X's ping or pong program against the in-process pong or
+    ping inside polyportd): no native relay, its bar is via <= direct(X) + 2 us, X's direct series
+    in the same case. In-process -> in-process has no bar."""
+    return "inprocess" in (case["from"], case["to"]) and case["from"] != case["to"]
+
+
 def pair_of(case, source):
     """One measured pair: the figures and the bars."""
     t = case.get("targets", {})
     direct_bar = t.get("direct_bar")
     same = case["from"] == case["to"]
-    if same and "direct" in case and "via_one_way_p50_ns" in t:
+    if into_inprocess(case) and "via_within_direct_plus_2us" in t:
+        direct_bar = {"via_within": t["via_within_direct_plus_2us"], "is_a_bar": True,
+                      "bound_ns": t["bound_direct_plus_2us_ns"]}
+    if same and "direct" in case and "via_one_way_p50_ns" in t and case["from"] != "inprocess":
         # The diagonal's own direct series (same case): 2 x direct + 2 us.
         d50 = p(case, "direct", "p50")
         bound = 2 * d50 + 2000
@@ -73,7 +83,8 @@ def pair_of(case, source):
     return {
         "from": case["from"], "to": case["to"], "placement": case["placement"], "size_bytes": case["size_bytes"],
         "measured": True, "source": source,
-        "direct_one_way_ns": {"p50": p(case, "direct", "p50"), "p99": p(case, "direct", "p99")} if same else None,
+        "direct_one_way_ns": ({"p50": p(case, "direct", "p50"), "p99": p(case, "direct", "p99")}
+                              if same or into_inprocess(case) else None),
         "via_polyport_one_way_ns": {"p50": p(case, "via_polyport", "p50"), "p99": p(case, "via_polyport", "p99")},
         "via_native_relay_one_way_ns": {"p50": p(case, "via_native_relay", "p50"),
                                         "p99": p(case, "via_native_relay", "p99")},
@@ -86,7 +97,9 @@ def pair_of(case, source):
             "via_within_direct_bound": None if direct_bar is None else direct_bar["via_within"],
             "direct_bound_is_a_bar": None if direct_bar is None else direct_bar["is_a_bar"],
             "direct_bound_ns": None if direct_bar is None else direct_bar["bound_ns"],
-            "direct_bound": "2 x direct + 2 us" if same else "direct(from) + direct(to) + 2 us, this run's diagonal",
+            "direct_bound": ("2 x direct + 2 us" if same else
+                             "direct(from) + 2 us, same case (no native relay: the component lives in the bridge)"
+                             if into_inprocess(case) else "direct(from) + direct(to) + 2 us, this run's diagonal"),
         },
         "errors": errors,
     }
@@ -115,12 +128,15 @@ def can_pairs(results):
 def not_measured(matrix):
     """Every ordered pair of ALL_MODELS that has no figures, with the reason."""
     out = []
+    measured = {(c["from"], c["to"]) for c in matrix["cases"]}
     for a in ALL_MODELS:
         for b in ALL_MODELS:
-            if "inprocess" in (a, b):
-                reason = next(r["reason"] for r in matrix["not_measured"] if r["pairs"].startswith("inprocess"))
-            elif "can" in (a, b) and a != b:
+            if (a, b) in measured:
+                continue
+            if "can" in (a, b) and a != b:
                 reason = next(r["reason"] for r in matrix["not_measured"] if r["pairs"].startswith("can"))
+            elif "inprocess" in (a, b):
+                reason = "not in this run (bench_matrix --models)"
             else:
                 continue
             out.append({"from": a, "to": b, "measured": False, "reason": reason})
@@ -131,6 +147,12 @@ def cell_text(pair):
     via = pair["via_polyport_one_way_ns"]
     relay = pair["via_native_relay_one_way_ns"]
     bars = pair["bars"]
+    if pair["from"] == pair["to"] == "inprocess":
+        return "via %s/%s\nping and pong\nin one polyportd" % (us(via["p50"]), us(via["p99"]))
+    if "inprocess" in (pair["from"], pair["to"]):
+        d = pair["direct_one_way_ns"] or {}
+        return "via %s/%s\ndirect %s/%s\ndirect+2: %s" % (us(via["p50"]), us(via["p99"]), us(d.get("p50")),
+                                                        us(d.get("p99")), verdict(bars["via_within_direct_bound"]))
     text = "via %s/%s\nrelay %s/%s\nrelay+2: %s" % (us(via["p50"]), us(via["p99"]), us(relay["p50"]), us(relay["p99"]),
                                                    verdict(bars["via_within_relay_plus_2us"]))
     if bars["via_within_direct_bound"] is not None:
@@ -150,10 +172,14 @@ def markdown(matrix, pairs, missing, json_name):
              "",
              "Bars (issue 11): via polyport one-way p50 <= native relay p50 + 2 us, same case, every pair; via <= "
              "direct(from) + direct(to) + 2 us (2 x direct on the diagonal) for Cyclone DDS, LCM and CAN, reported "
-             "as information for Fast DDS. CPU per message: the bridging process's CPU time per round trip / 2.", ""]
+             "as information for Fast DDS. X -> in-process and in-process -> X: X's ping (pong) program against the "
+             "in-process pong (ping), components inside polyportd answering from their CallbackInPort; no native "
+             "relay exists for them, the cell shows [direct X] instead of (relay) and the bar is via <= direct(X) + "
+             "2 us, same case; in-process -> in-process: polyport's own figure, no bar. CPU per message: the "
+             "bridging process's CPU time per round trip / 2.", ""]
     placements = sorted({q["placement"] for q in pairs if q["source"] == "matrix"})
     sizes = sorted({q["size_bytes"] for q in pairs if q["source"] == "matrix"})
-    models = [m for m in ALL_MODELS if any(q["from"] == m for q in pairs)]
+    models = [m for m in ALL_MODELS if any(m in (q["from"], q["to"]) for q in pairs)]
     for placement in placements:
         for size in sizes:
             lines += ["## %s, %d B: via polyport (relay) median one-way us" % (placement, size), "",
@@ -169,6 +195,14 @@ def markdown(matrix, pairs, missing, json_name):
                         row.append("not measured" if not measurable(a, b) else "-")
                         continue
                     bars = q["bars"]
+                    if a == b == "inprocess":
+                        row.append("%s (ping and pong in one polyportd)" % us(q["via_polyport_one_way_ns"]["p50"]))
+                        continue
+                    if "inprocess" in (a, b):
+                        row.append("%s [%s] %s" % (us(q["via_polyport_one_way_ns"]["p50"]),
+                                                   us((q["direct_one_way_ns"] or {}).get("p50")),
+                                                   verdict(bars["via_within_direct_bound"])))
+                        continue
                     mark = verdict(bars["via_within_relay_plus_2us"])
                     row.append("%s (%s) %s%s" % (us(q["via_polyport_one_way_ns"]["p50"]),
                                                  us(q["via_native_relay_one_way_ns"]["p50"]), mark,
@@ -209,7 +243,7 @@ def markdown(matrix, pairs, missing, json_name):
 
 
 def measurable(a, b):
-    return "inprocess" not in (a, b) and not ("can" in (a, b) and a != b)
+    return not ("can" in (a, b) and a != b)
 
 
 def find(pairs, placement, a, b, size):
