@@ -3,7 +3,8 @@
 // 0x101 carrying the same one; `pong` answers every 0x100 with a 0x101 of the same bytes;
 // `relay` is what a bridge written natively with raw sockets does: 0x100 from interface A to B
 // and 0x101 from B to A. The runner sets it beside polyportd to tell polyport's cost from the
-// four vcan hops'. Frames are those of pingpong.dbc.
+// four vcan hops'. Frames are those of pingpong.dbc. The cross-model matrix
+// (benchmarks/matrix) sets the same ping and pong against other models' programs.
 //   pingpong_can ping N 8 ROUNDS WARMUP [SAMPLES]   one JSON line (pingpong_common.hpp)
 //   pingpong_can pong N 8                           until SIGINT / SIGTERM
 //   pingpong_can relay N_A N_B 8                    until SIGINT / SIGTERM
@@ -101,9 +102,12 @@ int ping(int n, int rounds, int warmup, const char* samples) {
   const int fd = open_can(n, kPongId);
   if (fd < 0) return 1;
   std::uint8_t data[8] = {};
-  // No discovery on CAN: probe (sequence numbers from the top down) until the path answers.
+  // No discovery on CAN: probe until the path answers, with sequence numbers from 2^52 up
+  // (above any measured one): exact in a double, so that they survive a path that decodes the
+  // frame into pingpong.dbc's physical values (the cross-model matrix's CAN -> other model),
+  // and positive as an LCM pong's signed seq.
   const std::int64_t deadline = now_ns() + 30'000'000'000;
-  for (std::uint64_t probe = ~std::uint64_t{0};; --probe) {
+  for (std::uint64_t probe = std::uint64_t{1} << 52;; ++probe) {
     put_seq(data, probe);
     if (send_frame(fd, kPingId, data) && echoed(fd, probe)) break;
     if (g_stop || now_ns() > deadline) {

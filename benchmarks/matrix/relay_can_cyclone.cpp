@@ -1,0 +1,7 @@
+// The native relay between raw SocketCAN and Cyclone DDS programs (relay.hpp): the kernel's CAN API
+// and the Cyclone DDS SDK with its generated types, no polyport.
+//   relay_can_cyclone PING_MODEL DOMAIN_PING DOMAIN_PONG 16   (a CAN domain N is the interface vcanN)
+#include "side_can.hpp"
+#include "side_cyclone.hpp"
+
+int main(int argc, char** argv) { return bench::relay::relay_main<bench::relay::CanSide, bench::relay::CycloneSide>(argc, argv); }
