@@ -147,6 +147,12 @@ def not_measured(runs, pairs, sizes):
     return out
 
 
+def shown(model, pairs, missing):
+    """A model with a row: one that has figures, or CAN while its pairs are listed missing."""
+    return any(q["from"] == model for q in pairs) or (
+        model == "can" and any("size_bytes" in m and "can" in (m["from"], m["to"]) for m in missing))
+
+
 def is_missing(missing, a, b, size):
     return any(m["from"] == a and m["to"] == b and m.get("size_bytes", size) == size for m in missing)
 
@@ -208,7 +214,7 @@ def markdown(matrix, runs, pairs, missing, json_name):
     placements = sorted({q["placement"] for q in pairs if q["source"] == "matrix"} or
                         {q["placement"] for q in pairs if from_run(q)})
     sizes = sorted({q["size_bytes"] for q in pairs if from_run(q)})
-    models = [m for m in ALL_MODELS if any(q["from"] == m for q in pairs)]
+    models = [m for m in ALL_MODELS if shown(m, pairs, missing)]
     for placement in placements:
         for size in sizes:
             lines += ["## %s, %d B: via polyport (relay) median one-way us" % (placement, size), "",
@@ -287,16 +293,20 @@ def heat_map(pairs, missing, png, title):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.colors
     import numpy as np
 
     placements = sorted({q["placement"] for q in pairs if q["source"] == "matrix"} or
                         {q["placement"] for q in pairs if from_run(q)})
     sizes = sorted({q["size_bytes"] for q in pairs if from_run(q)})
-    models = [m for m in ALL_MODELS if m != "inprocess" and any(q["from"] == m for q in pairs)] + ["inprocess"]
+    models = [m for m in ALL_MODELS if m != "inprocess" and shown(m, pairs, missing)] + ["inprocess"]
     panels = [(pl, sz) for pl in placements for sz in sizes]
     fig, axes = plt.subplots(len(placements), len(sizes), figsize=(8.5 * len(sizes), 7.5 * len(placements)),
                              squeeze=False)
     vmax = max(q["via_polyport_one_way_ns"]["p50"] or 0 for q in pairs) / 1000.0
+    # A logarithmic scale: the vcan guest's CAN cells are several times the host's.
+    vmin = max(min((q["via_polyport_one_way_ns"]["p50"] or vmax * 1000) for q in pairs) / 1000.0, 1.0)
+    norm = matplotlib.colors.LogNorm(vmin=vmin, vmax=max(vmax, vmin * 1.01))
     for (pl, sz), ax in zip(panels, axes.flat):
         grid = np.full((len(models), len(models)), np.nan)
         for i, a in enumerate(models):
@@ -305,21 +315,21 @@ def heat_map(pairs, missing, png, title):
                 if q is not None and q["via_polyport_one_way_ns"]["p50"] is not None:
                     grid[i, j] = q["via_polyport_one_way_ns"]["p50"] / 1000.0
                     text = cell_text(q) + ("\n(vcan guest, 8 B)" if q["source"] != "matrix" else "")
-                    dark = grid[i, j] > 0.6 * vmax
+                    dark = norm(grid[i, j]) > 0.6
                     ax.text(j, i, text, ha="center", va="center", fontsize=6.5, color="white" if dark else "black")
                 else:
                     ax.text(j, i, "not\nmeasured" if is_missing(missing, a, b, sz) else "-", ha="center", va="center",
                             fontsize=7, color="dimgray")
         cmap = plt.get_cmap("YlOrRd").copy()
         cmap.set_bad("lightgray")
-        image = ax.imshow(np.ma.masked_invalid(grid), cmap=cmap, vmin=0, vmax=vmax)
+        image = ax.imshow(np.ma.masked_invalid(grid), cmap=cmap, norm=norm)
         ax.set_xticks(range(len(models)), [LABEL[m] for m in models], fontsize=8)
         ax.set_yticks(range(len(models)), [LABEL[m] for m in models], fontsize=8)
         ax.set_xlabel("target model (pong)")
         ax.set_ylabel("source model (ping)")
         ax.set_title("%s, %d B: one-way p50/p99 us; relay+2: via <= relay + 2 us;\ndirect: via <= direct(from) + "
                      "direct(to) + 2 us" % (pl, sz), fontsize=9)
-        fig.colorbar(image, ax=ax, shrink=0.7, label="via polyport median one-way (us)")
+        fig.colorbar(image, ax=ax, shrink=0.7, label="via polyport median one-way (us, log scale)")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(png, dpi=110)
@@ -355,7 +365,7 @@ def main():
                          ", ".join("`%s`" % os.path.basename(p) for p in args.matrix_json).strip("`")))
     heat_map(pairs, missing, stem + ".png", "polyport cross-model matrix, %s, %s CPUs (%s)" % (
         matrix["started_utc"], matrix["host"].get("nproc"), matrix["host"].get("cpu")))
-    print("report: %s.md, %s.png; pairs in %s" % (stem, stem, args.matrix_json), file=sys.stderr)
+    print("report: %s.md, %s.png; pairs in %s" % (stem, stem, args.matrix_json[0]), file=sys.stderr)
     misses = [q for q in pairs if q["bars"]["via_within_relay_plus_2us"] is False or
               (q["bars"]["via_within_direct_bound"] is False and q["bars"]["direct_bound_is_a_bar"])]
     for q in misses:
