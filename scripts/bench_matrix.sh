@@ -12,11 +12,11 @@
 #         series), via polyportd and via a native relay, 16 B and 1 KiB, in a private network
 #         namespace (needs root), as the LCM benchmark does;
 #   vcan  CAN -> each model and each model -> CAN, and the CAN diagonal, classic 8-byte frames
-#         (the 16 B column's analog), with every model's diagonal for the direct figures of the
-#         second bar, inside scripts/vcan-run (the user-mode Linux guest on a host without
-#         vcan: one CPU, every figure inflated, so a CAN pair is compared with its relay and
-#         the guest's direct figures from the same run). CAN FD (the 1 KiB analog) is not
-#         measured. In-process pairs are listed as not measured (README.md, "Benchmarks").
+#         (the 16 B column's analog) and CAN FD 64-byte frames (the 1 KiB column's), with every
+#         model's diagonal for the direct figures of the second bar, inside scripts/vcan-run
+#         (the user-mode Linux guest on a host without vcan: one CPU, every figure inflated, so
+#         a CAN pair is compared with its relay and the guest's direct figures from the same
+#         run). In-process pairs are listed as not measured (README.md, "Benchmarks").
 #
 #   scripts/bench_matrix.sh [--part host|vcan|both] [runner options]
 #     --part   which part to run (default both); the report covers what ran
@@ -81,8 +81,9 @@ if [ "$part" != host ]; then
   POLYPORT_BENCH_OUTER_HOST="$(nproc) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(uname -sr), loadavg $(cut -d' ' -f1-3 /proc/loadavg)"
   export POLYPORT_BENCH_OUTER_HOST
   echo "== running the matrix's CAN pairs in the vcan guest ($rounds round trips per series in $chunks chunks)" >&2
-  bench_run scripts/vcan-run --interfaces 35 --timeout 7200 -- "$build/bin/bench_matrix" "$out" "$rounds" "$warmup" \
-    --chunks "$chunks" --models can,cyclonedds,fastdds,lcm --pairs can --sizes 16 --placements unpinned \
+  # --fd: the FD MTU on every interface (classic frames pass there too, as on an FD bus).
+  bench_run scripts/vcan-run --interfaces 35 --fd --timeout 7200 -- "$build/bin/bench_matrix" "$out" "$rounds" \
+    "$warmup" --chunks "$chunks" --models can,cyclonedds,fastdds,lcm --pairs can --placements unpinned \
     --domain-base 100 "$@"
   [ "$bench_rc" -eq 0 ] || rc=$bench_rc
   if [ -f "$out" ]; then

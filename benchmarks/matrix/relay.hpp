@@ -16,7 +16,8 @@
 //     DOMAIN_*    a DDS domain, for LCM the port of udpm://239.255.76.67:PORT?ttl=0, for CAN
 //                 the N of the interface vcanN (side_can.hpp)
 //     SIZE        16 or 1024 (the ping-pong types of benchmarks/dds/pingpong.idl and
-//                 benchmarks/lcm/pingpong.lcm); with CAN 16 alone (classic 8-byte frames)
+//                 benchmarks/lcm/pingpong.lcm); CAN carries them in classic 8-byte frames and
+//                 CAN FD 64-byte frames (side_can.hpp)
 //   Runs until SIGINT / SIGTERM.
 //
 // Threads: a DDS side forwards from its SDK's receive thread (a data-available listener, as

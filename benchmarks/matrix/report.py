@@ -10,7 +10,8 @@ matrix:
   RESULTS/matrix-STAMP.png    the heat map: cell = via polyport median one-way us, annotated
                               with the native relay's median and whether the bars hold
 
-The CAN pairs (the CAN row and column, 16 B class: classic 8-byte frames) are measured in the
+The CAN pairs (the CAN row and column: classic 8-byte frames in the 16 B class, CAN FD 64-byte
+frames in the 1 KiB class) are measured in the
 vcan guest by a run of their own, RESULTS/matrix-STAMP-vcan.json (bench_matrix --pairs can
 inside scripts/vcan-run; scripts/bench_matrix.sh runs both): given after the host file, its
 CAN pairs fill the same tables and heat map, marked as measured in the guest (user-mode Linux:
@@ -234,8 +235,8 @@ def markdown(matrix, runs, pairs, missing, json_name):
                 lines.append("| %s | %s |" % (LABEL[a], " | ".join(row)))
             lines.append("")
     if any(q["source"] == GUEST for q in pairs):
-        lines += ["‡ CAN pairs: classic CAN (8 data bytes: seq; the other model's 16 B pad dropped) measured in the "
-                  "vcan guest (user-mode Linux, one CPU; its own placement, shown in every table): each system call "
+        lines += ["‡ CAN pairs: classic CAN frames of 8 data bytes in the 16 B tables, CAN FD frames of 64 in the "
+                  "1 KiB ones (seq; the other model's pad not carried), measured in the vcan guest (user-mode Linux, one CPU; its own placement, shown in every table): each system call "
                   "there (a clock read too, ~15 us) goes through the guest kernel process, so every figure is "
                   "inflated. Compare such a pair with its relay and the guest's direct figures (the bars do), not "
                   "with the host's cells.", ""]
@@ -314,7 +315,8 @@ def heat_map(pairs, missing, png, title):
                 q = find_cell(pairs, pl, a, b, sz)
                 if q is not None and q["via_polyport_one_way_ns"]["p50"] is not None:
                     grid[i, j] = q["via_polyport_one_way_ns"]["p50"] / 1000.0
-                    text = cell_text(q) + ("\n(vcan guest, 8 B)" if q["source"] != "matrix" else "")
+                    text = cell_text(q) + ("\n(vcan guest, %s B)" % (q.get("can_frame_bytes") or 8)
+                                           if q["source"] != "matrix" else "")
                     dark = norm(grid[i, j]) > 0.6
                     ax.text(j, i, text, ha="center", va="center", fontsize=6.5, color="white" if dark else "black")
                 else:

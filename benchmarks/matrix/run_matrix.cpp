@@ -26,15 +26,17 @@
 // passthrough, no mapping.
 //
 // CAN (--models can,..., inside scripts/vcan-run: the host kernel has no CAN): pingpong_can
-// (benchmarks/can, raw SocketCAN, classic 8-byte frames of pingpong.dbc: Ping 0x100, Pong
-// 0x101, one 64-bit signal seq) against the other models' programs, in the 16 B class only
-// (CAN FD 64-byte frames, the 1 KiB analog, are not built). Via polyport: a socketcan
-// component per side; a DBC signal is a physical double, exact up to 2^53, so the ping
-// programs' sequence numbers stay below (measured ones from 0, the CAN and LCM pings' probes
-// from 2^52) and each CAN <-> other connection carries kCanMapping (seq narrowed into the
-// integer, pad zero: a classic frame has no room for it). The native relays are
-// relay_can_<sdk> (side_can.hpp: a raw CAN socket). Each CAN pair takes five interfaces
-// (vcanN.., a domain's N), so --pairs can with all four models needs --interfaces 35.
+// (benchmarks/can, raw SocketCAN) against the other models' programs: in the 16 B class
+// classic 8-byte frames of pingpong.dbc (Ping 0x100, Pong 0x101, one 64-bit signal seq), in
+// the 1 KiB class CAN FD 64-byte frames of pingpong_fd.dbc (the same, seq in the first 8
+// bytes, the rest zero; the interfaces need the FD MTU: vcan-run --fd). Via polyport: a
+// socketcan component per side; a DBC signal is a physical double, exact up to 2^53, so the
+// ping programs' sequence numbers stay below (measured ones from 0, the CAN and LCM pings'
+// probes from 2^52) and each CAN <-> other connection carries kCanMapping (seq narrowed into
+// the integer, pad zero: no signal carries it). The native relays are relay_can_<sdk>
+// (side_can.hpp: a raw CAN socket; pad not carried either). Each CAN pair takes five
+// interfaces (vcanN.., a domain's N), so --pairs can with all four models needs
+// --interfaces 35.
 //
 //   bench_matrix OUTPUT.json [ROUNDS [WARMUP]] [options]      (scripts/bench_matrix.sh)
 //     --chunks N, --placements LIST, --cpu N, --keep DIR   as the same-model runners
@@ -75,7 +77,8 @@ using bench::Json;
 using bench::Placement;
 
 constexpr const char* kLcmGroup = "239.255.76.67";
-constexpr int kCanFrameBytes = 8;
+// A CAN frame's data bytes in a size class: classic in the 16 B one, FD in the 1 KiB one.
+int can_frame_bytes(int size) { return size == 16 ? 8 : 64; }
 
 // What the runner needs of a model: its ping-pong program, types and wire names.
 struct Model {
@@ -90,9 +93,15 @@ struct Model {
   }
   std::string ping() const { return lcm ? "PING" : "ping"; }
   std::string pong() const { return lcm ? "PONG" : "pong"; }
-  // The size its ping-pong program takes for a case of `size` (16 or 1024): CAN carries the 16 B
-  // class in a classic 8-byte frame (seq; no room for pad).
-  int program_size(int size) const { return can ? kCanFrameBytes : size; }
+  // The size its ping-pong program takes for a case of `size` (16 or 1024): CAN's frame.
+  int program_size(int size) const { return can ? can_frame_bytes(size) : size; }
+  // Its type file for a case of `size`: CAN's 1 KiB class has its FD messages in a file of its own.
+  std::string types(int size) const {
+#ifdef POLYPORT_BENCH_CAN
+    if (can && size != 16) return POLYPORT_BENCH_DBC_FD;
+#endif
+    return types_file;
+  }
 };
 
 const std::vector<Model>& all_models() {
@@ -140,17 +149,19 @@ struct Domains {
 };
 
 // A SocketCAN component on vcanN with ports named as the other models' ("ping": pingpong.dbc's
-// Ping, id 0x100; "pong": Pong, 0x101), so that the connections match by port name. The ping
-// side's bus sends Ping and polyport sends it Pong; the pong side's the other way round.
-std::string can_component(const std::string& name, int n, bool ping_side) {
-  const auto port = [](const char* port_name, const char* message, bool bus_sends) {
-    return std::string("    <data_port><name>") + port_name + "</name><data_type>pingpong::" + message +
+// Ping, id 0x100; "pong": Pong, 0x101; in the 1 KiB class pingpong_fd.dbc's, on an FD socket),
+// so that the connections match by port name. The ping side's bus sends Ping and polyport
+// sends it Pong; the pong side's the other way round.
+std::string can_component(const std::string& name, int n, int size, bool ping_side) {
+  const std::string file = size == 16 ? "pingpong::" : "pingpong_fd::";
+  const auto port = [&](const char* port_name, const char* message, bool bus_sends) {
+    return std::string("    <data_port><name>") + port_name + "</name><data_type>" + file + message +
            "</data_type><usage>" + (bus_sends ? "output" : "input") + "</usage></data_port>\n";
   };
   return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<component_profile>\n  <name>" + name +
-         "</name>\n  <model>socketcan</model>\n  <socketcan><interface>vcan" + std::to_string(n) +
-         "</interface></socketcan>\n  <ports>\n" + port("ping", "Ping", ping_side) + port("pong", "Pong", !ping_side) +
-         "  </ports>\n</component_profile>\n";
+         "</name>\n  <model>socketcan</model>\n  <socketcan><interface>vcan" + std::to_string(n) + "</interface>" +
+         (size == 16 ? "" : "<fd>true</fd>") + "</socketcan>\n  <ports>\n" + port("ping", "Ping", ping_side) +
+         port("pong", "Pong", !ping_side) + "  </ports>\n</component_profile>\n";
 }
 
 // CAN <-> another model: pingpong.dbc's one signal seq (a double) <-> seq (unsigned or signed 64):
@@ -161,7 +172,7 @@ constexpr const char* kCanMapping =
     R"(<mapping by_name="false"><field target="seq" source="seq" allow_narrowing="true"/></mapping>)";
 
 std::string component(const std::string& name, const Model& m, int domain, int size, bool ping_side) {
-  if (m.can) return can_component(name, domain, ping_side);
+  if (m.can) return can_component(name, domain, size, ping_side);
   const std::string section = m.lcm ? "<lcm><url>udpm://" + std::string(kLcmGroup) + ":" + std::to_string(domain) +
                                           "?ttl=0</url></lcm>"
                                     : "<dds><domain>" + std::to_string(domain) + "</domain></dds>";
@@ -171,8 +182,8 @@ std::string component(const std::string& name, const Model& m, int domain, int s
 
 // polyportd's application of a case: A's ping side on `a`, B's pong side on `b`.
 fs::path write_profiles(const fs::path& dir, const Model& from, const Model& to, int size, int a, int b) {
-  std::vector<std::string> files{from.types_file};
-  if (to.types_file != from.types_file) files.push_back(to.types_file);
+  std::vector<std::string> files{from.types(size)};
+  if (to.types(size) != from.types(size)) files.push_back(to.types(size));
   const std::string mapping =
       from.can != to.can ? kCanMapping
       : from.lcm != to.lcm ? R"(<mapping><field target="seq" source="seq" allow_narrowing="true"/></mapping>)"
@@ -206,7 +217,7 @@ Json run_pair(const Settings& s, const Placement& placement, const Model& from, 
          {"to", to.name},
          {"size_bytes", size},
          {"loadavg1_at_start", bench::load_average()}};
-  if (from.can || to.can) c["can_frame_bytes"] = kCanFrameBytes;
+  if (from.can || to.can) c["can_frame_bytes"] = can_frame_bytes(size);
   bench::CaseCommands commands;
   if (same) {
     commands = bench::five_domain_commands(from.program, d.of(from, 0), from.program_size(size));
@@ -327,12 +338,6 @@ Json can_not_measured(const Settings& s) {
                               "a run of their own (scripts/bench_matrix.sh --part vcan: bench_matrix --models "
                               "can,... --pairs can), whose file report.py sets into the same table"}});
   }
-  if (std::find(s.sizes.begin(), s.sizes.end(), 1024) != s.sizes.end()) {
-    out.push_back({{"pairs", "can <-> every model, 1 KiB"},
-                   {"size_bytes", 1024},
-                   {"reason", "CAN FD 64-byte frames (the 1 KiB analog) are not built: the CAN ping-pong program, "
-                              "pingpong.dbc and the relays' CAN side carry classic 8-byte frames alone"}});
-  }
   return out;
 }
 
@@ -368,9 +373,11 @@ Json can_settings() {
                                 : "scripts/vcan-run (" + in + ")"},
           {"vcan_run", in},
           {"network", "the namespace scripts/vcan-run gives (the guest's own), loopback routes the LCM group"},
-          {"can", "pingpong_can (benchmarks/can, raw SocketCAN): classic frames of 8 data bytes (pingpong.dbc: Ping "
-                  "0x100, Pong 0x101, one 64-bit signal seq) in the 16 B class; the other model's pad is dropped on "
-                  "the way to CAN and zero from it; sizes_bytes names the class, can_frame_bytes the frame"},
+          {"can", "pingpong_can (benchmarks/can, raw SocketCAN): in the 16 B class classic frames of 8 data bytes "
+                  "(pingpong.dbc: Ping 0x100, Pong 0x101, one 64-bit signal seq), in the 1 KiB class CAN FD frames "
+                  "of 64 (pingpong_fd.dbc: the same ids, seq, the rest zero); the other model's pad is not carried "
+                  "(dropped on the way to CAN, zero from it), by polyport nor by the relays; sizes_bytes names the "
+                  "class, can_frame_bytes the frame"},
           {"can_mapping", "CAN <-> other model: seq (a DBC double) <-> seq (64-bit integer) with allow_narrowing, "
                           "by_name=\"false\" (pad zero); the ping programs' sequence numbers, probes from 2^52 "
                           "included, are exact in a double"},
@@ -379,12 +386,11 @@ Json can_settings() {
 
 // Whether the run measures the pair a -> b at `size`: --pairs cross leaves out the diagonal;
 // --pairs can keeps the pairs with CAN on a side and every diagonal (their direct series give
-// the second bar's figures from the same run); CAN only in the 16 B class (classic frames).
-bool measures(const Settings& s, const std::string& a, const std::string& b, int size) {
+// the second bar's figures from the same run).
+bool measures(const Settings& s, const std::string& a, const std::string& b) {
   const bool can = a == "can" || b == "can";
   if (s.cross_only && a == b) return false;
-  if (s.can_pairs_only && !can && a != b) return false;
-  return !can || size == 16;
+  return !(s.can_pairs_only && !can && a != b);
 }
 
 // The vcan interfaces a run uses: five per pair with CAN on a side (vcan0 up).
@@ -392,7 +398,7 @@ int can_interfaces(const Settings& s) {
   int n = 0;
   for (const std::string& a : s.models) {
     for (const std::string& b : s.models) {
-      if ((a == "can" || b == "can") && measures(s, a, b, 16)) n += 5;
+      if ((a == "can" || b == "can") && measures(s, a, b)) n += 5;
     }
   }
   return n;
@@ -415,6 +421,11 @@ int main(int argc, char** argv) {
   if (interfaces > 0 && if_nametoindex(("vcan" + std::to_string(interfaces - 1)).c_str()) == 0) {
     std::fprintf(stderr, "vcan%d does not exist: the CAN pairs run through scripts/vcan-run --interfaces %d\n",
                  interfaces - 1, interfaces);
+    return 1;
+  }
+  if (interfaces > 0 && std::find(s.sizes.begin(), s.sizes.end(), 1024) != s.sizes.end() &&
+      bench::read_file("/sys/class/net/vcan0/mtu").rfind("72", 0) != 0) {
+    std::fprintf(stderr, "the CAN pairs of 1 KiB send CAN FD frames: run through scripts/vcan-run --fd\n");
     return 1;
   }
   if (!s.host_network &&
@@ -456,11 +467,11 @@ int main(int argc, char** argv) {
     int can_pair = 0;
     for (const std::string& a : s.models) {
       for (const std::string& b : s.models) {
-        const bool can = (a == "can" || b == "can") && measures(s, a, b, 16);
+        const bool can = (a == "can" || b == "can") && measures(s, a, b);
         const Domains d{s.domain_base + 5 * pair, s.port_base + 5 * pair, can ? 5 * can_pair++ : 0};
         ++pair;
         for (const int size : s.sizes) {
-          if (!measures(s, a, b, size)) continue;
+          if (!measures(s, a, b)) continue;
           if (bench::interrupted()) break;
           std::fprintf(stderr, "%s %s -> %s %d B ...\n", placement.name.c_str(), a.c_str(), b.c_str(), size);
           const std::string name = placement.name + "-" + a + "-" + b + "-" + std::to_string(size);

@@ -6,12 +6,13 @@ the relays).
   can_pairs_test.py relays BIN   each native relay (relay_can_cyclone, relay_can_fastdds,
                                  relay_can_lcm) carries a short ping-pong both ways: a CAN ping
                                  to the model's pong and back, and the model's ping to a CAN
-                                 pong and back (needs vcan0 and vcan1)
+                                 pong and back, in classic and in FD frames (needs vcan0 and
+                                 vcan1 with the FD MTU)
   can_pairs_test.py matrix BIN   a short run of bench_matrix's CAN part (--pairs can: every CAN
-                                 pair and every diagonal, 16 B class) measures every series of
+                                 pair and every diagonal, both size classes) measures every series of
                                  every CAN case in full (each ping program matches its echoes'
                                  sequence numbers, probes included), and every CAN case's
-                                 generated profile passes `polyportd check` (needs vcan0..34)
+                                 generated profile passes `polyportd check` (needs vcan0..34, FD MTU)
 
 Exit 0 when it holds, 1 with the reason otherwise."""
 import json
@@ -75,17 +76,19 @@ def ping_pong(label, ping, background, problems):
 def relays(bin_dir):
     loopback_route()
     b = lambda name: os.path.join(bin_dir, name)
-    can_ping = [b("pingpong_can"), "ping", "0", "8", str(ROUNDS), str(WARMUP)]
     problems = []
-    for program, model, domain in MODELS:
-        relay = b("relay_can_" + program)
-        other = b("pingpong_" + program)
-        # CAN ping on vcan0 -> relay -> the model's pong, and back.
-        ping_pong(f"CAN -> {model}", can_ping,
-                  [[other, "pong", str(domain), "16"], [relay, "can", "0", str(domain), "16"]], problems)
-        # The model's ping -> relay -> CAN pong on vcan1, and back.
-        ping_pong(f"{model} -> CAN", [other, "ping", str(domain + 1), "16", str(ROUNDS), str(WARMUP)],
-                  [[b("pingpong_can"), "pong", "1", "8"], [relay, model, str(domain + 1), "1", "16"]], problems)
+    # Each size class: the other model's type, and CAN's frame (classic, FD).
+    for size, frame in (("16", "8"), ("1024", "64")):
+        can_ping = [b("pingpong_can"), "ping", "0", frame, str(ROUNDS), str(WARMUP)]
+        for program, model, domain in MODELS:
+            relay = b("relay_can_" + program)
+            other = b("pingpong_" + program)
+            # CAN ping on vcan0 -> relay -> the model's pong, and back.
+            ping_pong(f"CAN -> {model}, {frame} B frames", can_ping,
+                      [[other, "pong", str(domain), size], [relay, "can", "0", str(domain), size]], problems)
+            # The model's ping -> relay -> CAN pong on vcan1, and back.
+            ping_pong(f"{model} -> CAN, {frame} B frames", [other, "ping", str(domain + 1), size, str(ROUNDS), str(WARMUP)],
+                      [[b("pingpong_can"), "pong", "1", frame], [relay, model, str(domain + 1), "1", size]], problems)
     for p in problems:
         print(p)
     return 1 if problems else 0
@@ -96,7 +99,7 @@ def matrix(bin_dir):
     with tempfile.TemporaryDirectory() as keep:
         out = os.path.join(keep, "matrix.json")
         r = subprocess.run([os.path.join(bin_dir, "bench_matrix"), out, str(ROUNDS), str(WARMUP), "--chunks", "1",
-                            "--models", "can,cyclonedds,fastdds,lcm", "--pairs", "can", "--sizes", "16",
+                            "--models", "can,cyclonedds,fastdds,lcm", "--pairs", "can", "--sizes", "16,1024",
                             "--placements", "unpinned", "--domain-base", "100", "--keep", keep])
         if not os.path.exists(out):
             print(f"bench_matrix wrote no result (exited {r.returncode})")
@@ -104,10 +107,11 @@ def matrix(bin_dir):
         with open(out) as f:
             result = json.load(f)
         cases = [c for c in result["cases"] if "can" in (c["from"], c["to"])]
-        if len(cases) != 7:
-            problems.append(f"{len(cases)} CAN cases, expected 7 (CAN -> 3 models, 3 models -> CAN, CAN -> CAN)")
+        if len(cases) != 14:
+            problems.append(f"{len(cases)} CAN cases, expected 14 (CAN -> 3 models, 3 models -> CAN, CAN -> CAN; "
+                            "two sizes)")
         for c in cases:
-            label = f"{c['from']} -> {c['to']}"
+            label = f"{c['from']} -> {c['to']} {c['size_bytes']} B"
             series = ["via_polyport", "via_native_relay"] + (["direct"] if c["from"] == c["to"] else [])
             for s in series:
                 got = c.get(s, {}).get("one_way_ns", {}).get("n")
