@@ -256,7 +256,9 @@ def markdown(matrix, runs, pairs, missing, json_name):
         if b["via_within_direct_bound"] is not None and not b["direct_bound_is_a_bar"]:
             direct_verdict += " (info)"
         lines.append("| %s | %s | %s | %s | %s/%s | %s/%s | %s/%s | %s | %s | %s | %s | %s | %s/%s |" % (
-            q["placement"], LABEL[q["from"]], LABEL[q["to"]], q["size_bytes"], us(d.get("p50")), us(d.get("p99")),
+            q["placement"], LABEL[q["from"]], LABEL[q["to"]],
+            "%d%s" % (q["size_bytes"], " (CAN %d)" % q["can_frame_bytes"] if q.get("can_frame_bytes") else ""),
+            us(d.get("p50")), us(d.get("p99")),
             us(q["via_polyport_one_way_ns"]["p50"]), us(q["via_polyport_one_way_ns"]["p99"]),
             us(q["via_native_relay_one_way_ns"]["p50"]), us(q["via_native_relay_one_way_ns"]["p99"]),
             verdict(b["via_within_relay_plus_2us"]), us(b["direct_bound_ns"]), direct_verdict,
