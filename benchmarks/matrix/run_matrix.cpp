@@ -41,7 +41,8 @@
 //   bench_matrix OUTPUT.json [ROUNDS [WARMUP]] [options]      (scripts/bench_matrix.sh)
 //     --chunks N, --placements LIST, --cpu N, --keep DIR   as the same-model runners
 //                        (benchmarks/common/runner.hpp RunOptions)
-//     --models LIST      cyclonedds,fastdds,lcm (default: all three)
+//     --models LIST      cyclonedds,fastdds,lcm,can (default: the first three; can where the
+//                        SocketCAN model is built, and only with vcan interfaces, see above)
 //     --sizes LIST       16,1024 (default: both)
 //     --pairs all|cross|can  cross: leave out the diagonal; can: the pairs with CAN on a side
 //                        and every diagonal (the direct figures of the second bar, from the
@@ -411,7 +412,7 @@ int main(int argc, char** argv) {
   if (!parsed) {
     std::fprintf(stderr,
                  "usage: %s OUTPUT.json [ROUNDS [WARMUP]] [--chunks N] [--placements unpinned,one-core] [--cpu N]\n"
-                 "       [--models cyclonedds,fastdds,lcm] [--sizes 16,1024] [--pairs all|cross] [--domain-base N]\n"
+                 "       [--models cyclonedds,fastdds,lcm,can] [--sizes 16,1024] [--pairs all|cross|can] [--domain-base N]\n"
                  "       [--port-base N] [--host-network] [--keep DIR]\n",
                  argv[0]);
     return 2;
@@ -452,7 +453,7 @@ int main(int argc, char** argv) {
        {"network", s.host_network ? "the host's" : "a private namespace, loopback routes the LCM group"},
        {"cpu_per_message", "the bridging process's CPU per round trip / 2 (each round trip passes it twice)"},
        {"bars", "via one-way p50 <= relay one-way p50 + 2 us (every pair, same case); via one-way p50 <= "
-                "direct(A) + direct(B) + 2 us (2 x direct on the diagonal) for pairs of Cyclone DDS and LCM, "
+                "direct(A) + direct(B) + 2 us (2 x direct on the diagonal) for pairs of Cyclone DDS, LCM and CAN, "
                 "reported for Fast DDS"}});
   if (interfaces > 0) settings.update(can_settings());
   result["settings"] = settings;
