@@ -226,6 +226,7 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
       if (p.contains("service_type")) out << "  service=" << p["service_type"].get<std::string>();
       if (p.contains("policy")) out << "  policy=" << p["policy"].get<std::string>();
       if (p.contains("depth")) out << "  depth=" << p["depth"];
+      if (p.contains("mode")) out << "  mode=" << p["mode"].get<std::string>();
       if (p.contains("push")) out << "  push=" << p["push"].get<std::string>();
       if (p.contains("push_cycle_ns")) out << " cycle=" << p["push_cycle_ns"].get<double>() / 1e6 << " ms";
       out << native_endpoint(c, p.value("name", "")) << "\n";

@@ -9,14 +9,15 @@
 #   benchmarks/results/matrix-<UTC stamp>.png    the heat map
 # Two parts, one table:
 #   host  every ordered pair of Cyclone DDS, Fast DDS and LCM (the diagonal with its direct
-#         series), via polyportd and via a native relay, 16 B and 1 KiB, in a private network
-#         namespace (needs root), as the LCM benchmark does;
+#         series), via polyportd and via a native relay, and the in-process pairs (against
+#         direct), 16 B and 1 KiB, in a private network namespace (needs root), as the LCM
+#         benchmark does;
 #   vcan  CAN -> each model and each model -> CAN, and the CAN diagonal, classic 8-byte frames
 #         (the 16 B column's analog) and CAN FD 64-byte frames (the 1 KiB column's), with every
 #         model's diagonal for the direct figures of the second bar, inside scripts/vcan-run
 #         (the user-mode Linux guest on a host without vcan: one CPU, every figure inflated, so
 #         a CAN pair is compared with its relay and the guest's direct figures from the same
-#         run). In-process pairs are listed as not measured (README.md, "Benchmarks").
+#         run). CAN <-> in-process is listed as not measured (README.md, "Benchmarks").
 #
 #   scripts/bench_matrix.sh [--part host|vcan|both] [runner options]
 #     --part   which part to run (default both); the report covers what ran

@@ -18,8 +18,8 @@ build="${POLYPORT_BUILD_DIR:-build}"
 if [ ! -f "$build/CMakeCache.txt" ]; then
   cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 fi
-echo "[wheelchair] building polyportd, wheelchair_sim, wheelchair_dds_node"
-cmake --build "$build" -j "${POLYPORT_JOBS:-2}" --target polyportd polyport_wheelchair wheelchair_sim wheelchair_dds_node wheelchair_lcm_joystick
+echo "[wheelchair] building polyportd, wheelchair_sim and the component programs"
+cmake --build "$build" -j "${POLYPORT_JOBS:-2}" --target polyportd polyport_wheelchair wheelchair_sim wheelchair_dds_node wheelchair_fastdds_hw wheelchair_lcm_joystick
 # The raw files of the run (traces, summaries, logs, polyportd's statistics): kept in
 # POLYPORT_WHEELCHAIR_RUN_DIR when set (report.py DIR rebuilds the report from them),
 # otherwise in a temporary folder that goes at the end.

@@ -98,6 +98,17 @@ std::unique_ptr<InprocAdaptor> InprocAdaptor::create(const Subcomponent& subcomp
                               serve_on_caller_thread ? ProvidedServicePort::Dispatch::caller_thread : op.dispatch);
       }
     }
+    // A CallbackInPort: push mode, set here before the engine wires the port, so that its
+    // connections are made without a buffer and deliver on the writer's thread.
+    if (declaration.sink != nullptr) {
+      auto* in = dynamic_cast<DataInPort*>(port);
+      if (in == nullptr) {
+        diagnostics.error(spec->where, {}, "port '" + spec->name + "' cannot hand samples to " + where_class +
+                                               " as they arrive: it is no data input port");
+        continue;
+      }
+      in->set_sink(declaration.sink);
+    }
     *declaration.bound = port;
   }
   for (const PortSpec& spec : profile.ports) {

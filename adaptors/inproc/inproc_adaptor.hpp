@@ -2,6 +2,7 @@
 // lists, typed from the registry, bound to the ports the component's C++ class declares.
 // Binding checks that both sides agree (name, kind, direction, payload size and alignment),
 // so a plugin built against other types is refused at load time, not at the first sample.
+// A port the class declares as a CallbackInPort is put in push mode here, before wiring.
 #pragma once
 
 #include <memory>

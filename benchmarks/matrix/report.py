@@ -63,12 +63,22 @@ def verdict(v):
     return "n/a" if v is None else ("ok" if v else "MISS")
 
 
+def into_inprocess(case):
+    """X -> in-process or in-process -> X (X's ping or pong program against the in-process pong or
+    ping inside polyportd): no native relay, its bar is via <= direct(X) + 2 us, X's direct series
+    in the same case. In-process -> in-process has no bar."""
+    return "inprocess" in (case["from"], case["to"]) and case["from"] != case["to"]
+
+
 def pair_of(case, source):
     """One measured pair: the figures and the bars."""
     t = case.get("targets", {})
     direct_bar = t.get("direct_bar")
     same = case["from"] == case["to"]
-    if same and "direct" in case and "via_one_way_p50_ns" in t:
+    if into_inprocess(case) and "via_within_direct_plus_2us" in t:
+        direct_bar = {"via_within": t["via_within_direct_plus_2us"], "is_a_bar": True,
+                      "bound_ns": t["bound_direct_plus_2us_ns"]}
+    if same and "direct" in case and "via_one_way_p50_ns" in t and case["from"] != "inprocess":
         # The diagonal's own direct series (same case): 2 x direct + 2 us.
         d50 = p(case, "direct", "p50")
         bound = 2 * d50 + 2000
@@ -81,7 +91,8 @@ def pair_of(case, source):
     return {
         "from": case["from"], "to": case["to"], "placement": case["placement"], "size_bytes": case["size_bytes"],
         "measured": True, "source": source, "can_frame_bytes": case.get("can_frame_bytes"),
-        "direct_one_way_ns": {"p50": p(case, "direct", "p50"), "p99": p(case, "direct", "p99")} if same else None,
+        "direct_one_way_ns": ({"p50": p(case, "direct", "p50"), "p99": p(case, "direct", "p99")}
+                              if same or into_inprocess(case) else None),
         "via_polyport_one_way_ns": {"p50": p(case, "via_polyport", "p50"), "p99": p(case, "via_polyport", "p99")},
         "via_native_relay_one_way_ns": {"p50": p(case, "via_native_relay", "p50"),
                                         "p99": p(case, "via_native_relay", "p99")},
@@ -94,7 +105,9 @@ def pair_of(case, source):
             "via_within_direct_bound": None if direct_bar is None else direct_bar["via_within"],
             "direct_bound_is_a_bar": None if direct_bar is None else direct_bar["is_a_bar"],
             "direct_bound_ns": None if direct_bar is None else direct_bar["bound_ns"],
-            "direct_bound": "2 x direct + 2 us" if same else "direct(from) + direct(to) + 2 us, this run's diagonal",
+            "direct_bound": ("2 x direct + 2 us" if same else
+                             "direct(from) + 2 us, same case (no native relay: the component lives in the bridge)"
+                             if into_inprocess(case) else "direct(from) + direct(to) + 2 us, this run's diagonal"),
         },
         "errors": errors,
     }
@@ -133,24 +146,28 @@ def not_measured(runs, pairs, sizes):
     out = []
     for a in ALL_MODELS:
         for b in ALL_MODELS:
-            if "inprocess" in (a, b):
-                reason = reason_for("inprocess", None)
-                if reason is not None:
-                    out.append({"from": a, "to": b, "measured": False, "reason": reason})
-            elif "can" in (a, b):
+            if "can" in (a, b):
+                if "inprocess" in (a, b):
+                    # Not size by size: the in-process pairs run on the host, the CAN pairs in the guest.
+                    if not any(q["from"] == a and q["to"] == b for q in pairs):
+                        out.append({"from": a, "to": b, "measured": False,
+                                    "reason": reason_for("can <-> inprocess", None) or CAN_INPROCESS})
+                    continue
                 for size in sizes:
                     if any(q["from"] == a and q["to"] == b and (q["size_bytes"] == size or not from_run(q))
                            for q in pairs):
                         continue
-                    reason = reason_for("can", size)
+                    reason = reason_for("can <-> every", size)
                     if reason is not None:
                         out.append({"from": a, "to": b, "size_bytes": size, "measured": False, "reason": reason})
+            elif "inprocess" in (a, b) and not any(q["from"] == a and q["to"] == b for q in pairs):
+                out.append({"from": a, "to": b, "measured": False, "reason": "not in this run (bench_matrix --models)"})
     return out
 
 
 def shown(model, pairs, missing):
     """A model with a row: one that has figures, or CAN while its pairs are listed missing."""
-    return any(q["from"] == model for q in pairs) or (
+    return any(model in (q["from"], q["to"]) for q in pairs) or (
         model == "can" and any("size_bytes" in m and "can" in (m["from"], m["to"]) for m in missing))
 
 
@@ -180,12 +197,20 @@ def mark(q):
 
 
 GUEST = "matrix, vcan guest"
+CAN_INPROCESS = ("the in-process ping and pong run against the host models' programs, the CAN pairs "
+                 "in the vcan guest")
 
 
 def cell_text(pair):
     via = pair["via_polyport_one_way_ns"]
     relay = pair["via_native_relay_one_way_ns"]
     bars = pair["bars"]
+    if pair["from"] == pair["to"] == "inprocess":
+        return "via %s/%s\nping and pong\nin one polyportd" % (us(via["p50"]), us(via["p99"]))
+    if "inprocess" in (pair["from"], pair["to"]):
+        d = pair["direct_one_way_ns"] or {}
+        return "via %s/%s\ndirect %s/%s\ndirect+2: %s" % (us(via["p50"]), us(via["p99"]), us(d.get("p50")),
+                                                        us(d.get("p99")), verdict(bars["via_within_direct_bound"]))
     text = "via %s/%s\nrelay %s/%s\nrelay+2: %s" % (us(via["p50"]), us(via["p99"]), us(relay["p50"]), us(relay["p99"]),
                                                    verdict(bars["via_within_relay_plus_2us"]))
     if bars["via_within_direct_bound"] is not None:
@@ -205,7 +230,11 @@ def markdown(matrix, runs, pairs, missing, json_name):
              "",
              "Bars (issue 11): via polyport one-way p50 <= native relay p50 + 2 us, same case, every pair; via <= "
              "direct(from) + direct(to) + 2 us (2 x direct on the diagonal) for Cyclone DDS, LCM and CAN, reported "
-             "as information for Fast DDS. CPU per message: the bridging process's CPU time per round trip / 2.", ""]
+             "as information for Fast DDS. X -> in-process and in-process -> X: X's ping (pong) program against the "
+             "in-process pong (ping), components inside polyportd answering from their CallbackInPort; no native "
+             "relay exists for them, the cell shows [direct X] instead of (relay) and the bar is via <= direct(X) + "
+             "2 us, same case; in-process -> in-process: polyport's own figure, no bar. CPU per message: the "
+             "bridging process's CPU time per round trip / 2.", ""]
     guest = next((m for m in runs if m is not matrix and is_guest(m)), matrix if is_guest(matrix) else None)
     if guest is not None:
         g = guest["settings"]
@@ -229,6 +258,14 @@ def markdown(matrix, runs, pairs, missing, json_name):
                         row.append("not measured" if is_missing(missing, a, b, size) else "-")
                         continue
                     bars = q["bars"]
+                    if a == b == "inprocess":
+                        row.append("%s (ping and pong in one polyportd)" % us(q["via_polyport_one_way_ns"]["p50"]))
+                        continue
+                    if "inprocess" in (a, b):
+                        row.append("%s [%s] %s" % (us(q["via_polyport_one_way_ns"]["p50"]),
+                                                   us((q["direct_one_way_ns"] or {}).get("p50")),
+                                                   verdict(bars["via_within_direct_bound"])))
+                        continue
                     row.append("%s (%s) %s%s" % (us(q["via_polyport_one_way_ns"]["p50"]),
                                                  us(q["via_native_relay_one_way_ns"]["p50"]),
                                                  verdict(bars["via_within_relay_plus_2us"]), mark(q)))
@@ -307,8 +344,9 @@ def heat_map(pairs, missing, png, title):
     fig, axes = plt.subplots(len(placements), len(sizes), figsize=(8.5 * len(sizes), 7.5 * len(placements)),
                              squeeze=False)
     vmax = max(q["via_polyport_one_way_ns"]["p50"] or 0 for q in pairs) / 1000.0
-    # A logarithmic scale: the vcan guest's CAN cells are several times the host's.
-    vmin = max(min((q["via_polyport_one_way_ns"]["p50"] or vmax * 1000) for q in pairs) / 1000.0, 1.0)
+    # A logarithmic scale: the vcan guest's CAN cells are several times the host's; from 10 us (the
+    # in-process diagonal's fraction of a microsecond takes the lightest colour).
+    vmin = max(min((q["via_polyport_one_way_ns"]["p50"] or vmax * 1000) for q in pairs) / 1000.0, 10.0)
     norm = matplotlib.colors.LogNorm(vmin=vmin, vmax=max(vmax, vmin * 1.01))
     for (pl, sz), ax in zip(panels, axes.flat):
         grid = np.full((len(models), len(models)), np.nan)

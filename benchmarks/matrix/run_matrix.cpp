@@ -15,6 +15,20 @@
 // asserts: the bars are computed and reported (benchmarks/matrix/report.py turns the file into
 // the table and the heat map).
 //
+// The in-process model ("inprocess", --models): a component inside polyportd has no program of
+// its own. X -> inprocess is X's ping program against the in-process pong of
+// benchmarks/matrix/inproc_pingpong.cpp (a passive component answering from its
+// CallbackInPort, on X's receive thread in polyportd), beside X's own pong program in the same
+// run (direct X <-> X, the chunks taking turns as in run_case); there is no native relay to set
+// beside it (the component lives inside the bridge), so its bar is via one-way p50 <=
+// direct(X) + 2 us. inprocess -> X is the in-process ping (inproc_pingpong.cpp: it sends the
+// next ping from the callback that takes the pong, and writes its percentiles to a file)
+// against X's pong program, with the same bar (each chunk of the ping's series is a polyportd
+// run of its own, taking turns with X's direct chunks). The in-process diagonal is the ping
+// and the pong inside one polyportd, the whole
+// round trip on the ping's thread (the pong answers inside the ping's write): polyport's own
+// figure, with nothing to set beside it.
+//
 // Mapping between the models' ping types: DDS `bench::Ping16 { unsigned long long seq; octet
 // pad[8]; }` (and Ping1k) and LCM `bench_lcm::ping16_t { int64_t seq; byte pad[8]; }`. pad maps
 // by name (octet and byte are both unsigned 8-bit); seq is unsigned 64 on one side and signed
@@ -41,13 +55,14 @@
 //   bench_matrix OUTPUT.json [ROUNDS [WARMUP]] [options]      (scripts/bench_matrix.sh)
 //     --chunks N, --placements LIST, --cpu N, --keep DIR   as the same-model runners
 //                        (benchmarks/common/runner.hpp RunOptions)
-//     --models LIST      cyclonedds,fastdds,lcm,can (default: the first three; can where the
-//                        SocketCAN model is built, and only with vcan interfaces, see above)
+//     --models LIST      cyclonedds,fastdds,lcm,inprocess,can (default: the first four; can
+//                        where the SocketCAN model is built, and only with vcan interfaces,
+//                        see above)
 //     --sizes LIST       16,1024 (default: both)
 //     --pairs all|cross|can  cross: leave out the diagonal; can: the pairs with CAN on a side
 //                        and every diagonal (the direct figures of the second bar, from the
 //                        same run: the vcan guest's figures are its own) (default: all)
-//     --domain-base N    first DDS domain; each pair takes 5 (default 185)
+//     --domain-base N    first DDS domain; each pair takes 5 (default 150)
 //     --port-base N      first LCM port; each pair takes 5 (default 7800)
 //     --host-network     as bench_lcm_pingpong: use the host's network (239.255.76.67 must
 //                        have a route) instead of a private network namespace; with CAN
@@ -63,10 +78,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <optional>
+#include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "runner.hpp"
@@ -134,11 +152,11 @@ std::string relay_program(const Model& a, const Model& b) {
 
 struct Settings {
   bench::RunOptions run;
-  std::vector<std::string> models{"cyclonedds", "fastdds", "lcm"};
+  std::vector<std::string> models{"cyclonedds", "fastdds", "lcm", "inprocess"};
   std::vector<int> sizes{16, 1024};
   bool cross_only = false;
   bool can_pairs_only = false;  // --pairs can
-  int domain_base = 185;
+  int domain_base = 150;
   int port_base = 7800;
   bool host_network = false;
 };
@@ -279,6 +297,218 @@ void add_direct_bar(Json& c, const Json& cases) {
                      {"is_a_bar", bar_model("from") && bar_model("to")}};
 }
 
+constexpr const char* kInprocess = "inprocess";
+
+// The in-process pong's component profile, its ports of `side`'s type (so that polyport
+// converts between side's wire format and the flat sample, and nothing maps).
+std::string inproc_pong_component(const Model& side, int size) {
+  const auto port = [&](const char* name, const char* usage) {
+    return std::string("    <data_port><name>") + name + "</name><data_type>" + side.type(size) + "</data_type><usage>" +
+           usage + "</usage></data_port>\n";
+  };
+  return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<component_profile>\n  <name>InprocPong</name>\n"
+         "  <model>inproc</model>\n  <execution_environment><library_type>so</library_type><library_name>" INPROC_PINGPONG
+         "</library_name><class_name>" +
+         std::string(size == 16 ? "Pong16" : "Pong1k") +
+         "</class_name></execution_environment>\n  <execution_semantics><type>passive</type></execution_semantics>\n"
+         "  <ports>\n" +
+         port("ping", "input") + port("pong", "output") + "  </ports>\n</component_profile>\n";
+}
+
+// X -> inprocess: X's ping program on domain 1 through polyportd to the in-process pong, and
+// X's own ping and pong programs on domain 0 (direct), the two series' chunks taking turns.
+Json run_into_inprocess(const Settings& s, const Placement& placement, const Model& from, int size,
+                        const Domains& d, const fs::path& dir) {
+  fs::create_directories(dir);
+  Json c{{"placement", placement.name},
+         {"from", from.name},
+         {"to", kInprocess},
+         {"size_bytes", size},
+         {"loadavg1_at_start", bench::load_average()},
+         {"domains", {{"direct", d.of(from, 0)}, {"via_ping", d.of(from, 1)}}},
+         {"pong", std::string("in-process component ") + (size == 16 ? "Pong16" : "Pong1k") +
+                      " (benchmarks/matrix/inproc_pingpong.cpp): passive, answers from its CallbackInPort on " +
+                      from.name + "'s receive thread in polyportd"},
+         {"native_relay", "none: an in-process component lives inside the bridge; the comparison is direct " +
+                              from.name + " <-> " + from.name + " (its own ping and pong programs), in this run"}};
+  const std::string sz = std::to_string(size);
+  const auto at = [&](int k) { return std::to_string(d.of(from, k)); };
+  const fs::path app = bench::write_pingpong_app(dir, "matrix_inprocess", from.types_file,
+                                                 component("PingSide", from, d.of(from, 1), size, true),
+                                                 inproc_pong_component(from, size), "ping", "pong");
+  const fs::path stats_file = dir / "polyport-stats.json";
+  const pid_t direct_pong = bench::spawn({from.program, "pong", at(0), sz}, dir / "pong-direct.out", placement);
+  const pid_t daemon = bench::spawn({POLYPORTD, "run", app.string(), "-q", "--stats-json", stats_file.string()},
+                                    dir / "polyportd.out", placement);
+  std::vector<bench::Path> paths{{"direct", {from.program, "ping", at(0), sz}, {{"pong", direct_pong}}, {}},
+                                 {"via", {from.program, "ping", at(1), sz}, {{"polyportd", daemon}}, {}}};
+  bench::run_interleaved(s.run.chunking, placement, dir, paths);
+  bench::finish(direct_pong, SIGTERM, 10);
+  const int daemon_rc = bench::finish(daemon, SIGINT, 20);
+  if (bench::interrupted()) return nullptr;
+  c["direct"] = paths[0].series.to_json(s.run.chunking.chunks);
+  c["via_polyport"] = paths[1].series.to_json(s.run.chunking.chunks);
+  const std::int64_t worst = bench::read_polyport_stats(stats_file, daemon_rc, dir / "polyportd.out.err", c);
+  const auto has = [&](const char* series) { return c[series].contains("one_way_ns"); };
+  if (worst < 0 || !has("direct") || !has("via_polyport")) return c;  // no targets: the case failed
+  const std::int64_t v50 = c["via_polyport"]["one_way_ns"]["p50"].get<std::int64_t>();
+  const std::int64_t d50 = c["direct"]["one_way_ns"]["p50"].get<std::int64_t>();
+  c["targets"] = {{"via_one_way_p50_ns", v50},
+                  {"direct_one_way_p50_ns", d50},
+                  {"bound_direct_plus_2us_ns", d50 + 2000},
+                  {"via_within_direct_plus_2us", v50 <= d50 + 2000},
+                  {"via_margin_ns", d50 + 2000 - v50},
+                  {"polyport_in_to_out_p99_ns", worst},
+                  {"in_to_out_p99_within_1us", worst <= 1000}};
+  return c;
+}
+
+// The in-process ping's component profile: periodic (10 ms: it only starts the run and gives
+// lost rounds up), its ports of `side`'s type; it writes its report and samples into `dir`.
+std::string inproc_ping_component(const Model& side, int size, const bench::Chunking& chunking, const fs::path& dir) {
+  const auto port = [&](const char* name, const char* usage) {
+    return std::string("    <data_port><name>") + name + "</name><data_type>" + side.type(size) + "</data_type><usage>" +
+           usage + "</usage></data_port>\n";
+  };
+  const auto property = [](const char* name, const std::string& value) {
+    return std::string("    <property name=\"") + name + "\">" + value + "</property>\n";
+  };
+  return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<component_profile>\n  <name>InprocPing</name>\n"
+         "  <model>inproc</model>\n  <execution_environment><library_type>so</library_type><library_name>" INPROC_PINGPONG
+         "</library_name><class_name>" +
+         std::string(size == 16 ? "Ping16Comp" : "Ping1kComp") +
+         "</class_name></execution_environment>\n"
+         "  <execution_semantics><type>periodic</type><period>10</period></execution_semantics>\n  <properties>\n" +
+         property("rounds", std::to_string(chunking.rounds)) + property("warmup", std::to_string(chunking.warmup)) +
+         property("report", (dir / "ping-via.json").string()) + property("samples", (dir / "ping-via.samples").string()) +
+         "  </properties>\n  <ports>\n" + port("ping", "output") + port("pong", "input") + "  </ports>\n</component_profile>\n";
+}
+
+// One run of the in-process ping (a polyportd of its own, in `dir`): its samples, lost rounds
+// and CPU times added to `via`. The daemon's exit code, or -1 when the ping wrote no report.
+int run_inproc_ping(const fs::path& app, const fs::path& dir, const Placement& placement, pid_t pong, int rounds,
+                    int warmup, bench::Series& via) {
+  // The ping's CPU clocks: polyportd's own (the ping runs there), then the pong program's.
+  if (pong > 0) setenv("POLYPORT_BENCH_CPU_PIDS", std::to_string(pong).c_str(), 1);
+  const fs::path stats_file = dir / "polyport-stats.json";
+  const pid_t daemon = bench::spawn({POLYPORTD, "run", app.string(), "-q", "--stats-json", stats_file.string()},
+                                    dir / "polyportd.out", placement);
+  unsetenv("POLYPORT_BENCH_CPU_PIDS");
+  // The run ends when the ping has written its report; a lost pong costs it a second.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60 + (rounds + warmup) / 100);
+  while (!fs::exists(dir / "ping-via.json") && std::chrono::steady_clock::now() < deadline && !bench::interrupted()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));  // the file is written whole, then closed
+  const int daemon_rc = bench::finish(daemon, SIGINT, 20);
+  const Json report = Json::parse(bench::read_file(dir / "ping-via.json"), nullptr, false);
+  if (report.is_discarded() || !report.contains("one_way_ns")) {
+    if (via.error.empty()) {
+      via.error = "the in-process ping wrote no report (polyportd: " + bench::read_file(dir / "polyportd.out.err") + ")";
+    }
+    return -1;
+  }
+  std::istringstream samples(bench::read_file(dir / "ping-via.samples"));
+  for (std::int64_t rtt = 0, write = 0; samples >> rtt >> write;) via.rtt.push_back(rtt);
+  via.write.assign(via.rtt.size(), 0);
+  via.lost += report.value("lost", 0);
+  via.chunk_p50_one_way.push_back(report["one_way_ns"].value("p50", std::int64_t{0}));
+  if (via.cpu_roles.empty()) {
+    via.cpu_roles = pong > 0 ? std::vector<std::string>{"polyportd", "pong"} : std::vector<std::string>{"polyportd"};
+    via.cpu_ns.assign(via.cpu_roles.size(), 0);
+  }
+  const Json cpu = report.value("cpu_ns", Json::array());
+  for (std::size_t i = 0; i < via.cpu_ns.size(); ++i) {
+    const std::int64_t spent = i < cpu.size() && cpu[i].is_number_integer() ? cpu[i].get<std::int64_t>() : -1;
+    via.cpu_ns[i] = spent < 0 || via.cpu_ns[i] < 0 ? -1 : via.cpu_ns[i] + spent;
+  }
+  return daemon_rc;
+}
+
+// inprocess -> X (X's pong program on domain 1, X's direct series on domain 0) and inprocess ->
+// inprocess (`to` null: the in-process pong, same polyportd). The in-process ping is not a
+// program: each chunk of its series is one polyportd run (ping warm-up, then its share of the
+// round trips), taking turns with the direct series' chunks as run_case's series do.
+// polyport's own figures are the last chunk's polyportd's.
+Json run_from_inprocess(const Settings& s, const Placement& placement, const Model* to, int size, const Domains& d,
+                        const fs::path& dir) {
+  fs::create_directories(dir);
+  const Model& side = to ? *to : model_named("cyclonedds");  // the diagonal's ports: the IDL type
+  const bench::Chunking& chunking = s.run.chunking;
+  const bench::Chunking one_chunk{chunking.per_chunk(), chunking.warmup, 1};
+  Json c{{"placement", placement.name},
+         {"from", kInprocess},
+         {"to", to ? to->name : kInprocess},
+         {"size_bytes", size},
+         {"loadavg1_at_start", bench::load_average()},
+         {"ping", std::string("in-process component ") + (size == 16 ? "Ping16Comp" : "Ping1kComp") +
+                      " (benchmarks/matrix/inproc_pingpong.cpp), one polyportd run per chunk"},
+         {"native_relay", "none: an in-process component lives inside the bridge"},
+         {"polyport_figures", "the last chunk's polyportd"}};
+  const std::string sz = std::to_string(size);
+  const auto at = [&](int k) { return std::to_string(d.of(side, k)); };
+  if (to) {
+    c["domains"] = {{"direct", d.of(*to, 0)}, {"via_pong", d.of(*to, 1)}};
+    c["comparison"] = "direct " + to->name + " <-> " + to->name + " (its own ping and pong programs), this case";
+  } else {
+    c["comparison"] = "none: ping and pong are both inside polyportd";
+  }
+  const pid_t direct_pong = to ? bench::spawn({to->program, "pong", at(0), sz}, dir / "pong-direct.out", placement) : -1;
+  const pid_t via_pong = to ? bench::spawn({to->program, "pong", at(1), sz}, dir / "pong-via.out", placement) : -1;
+  std::vector<bench::Path> direct;
+  if (to) direct.push_back({"direct", {to->program, "ping", at(0), sz}, {{"pong", direct_pong}}, {}});
+  bench::Series via;
+  int daemon_rc = -1;
+  fs::path last_chunk;
+  for (int k = 0; k < chunking.chunks && !bench::interrupted(); ++k) {
+    last_chunk = dir / ("chunk-" + std::to_string(k));
+    fs::create_directories(last_chunk);
+    const std::string ping_side = inproc_ping_component(side, size, one_chunk, last_chunk);
+    const fs::path app =
+        to ? bench::write_pingpong_app(last_chunk, "matrix_inprocess", to->types_file, ping_side,
+                                       component("PongSide", *to, d.of(*to, 1), size, false), "ping", "pong")
+           : bench::write_pingpong_app(last_chunk, "matrix_inprocess", side.types_file, ping_side,
+                                       inproc_pong_component(side, size), "ping", "pong");
+    // Taking turns at going first, as run_interleaved does.
+    if (k % 2 == 1 && to) bench::run_interleaved(one_chunk, placement, last_chunk, direct);
+    daemon_rc = run_inproc_ping(app, last_chunk, placement, via_pong, one_chunk.rounds, one_chunk.warmup, via);
+    if (k % 2 == 0 && to) bench::run_interleaved(one_chunk, placement, last_chunk, direct);
+  }
+  for (const pid_t pid : {direct_pong, via_pong}) {
+    if (pid > 0) bench::finish(pid, SIGTERM, 10);
+  }
+  if (bench::interrupted()) return nullptr;
+
+  if (to) c["direct"] = direct[0].series.to_json(chunking.chunks);
+  c["via_polyport"] = via.to_json(chunking.chunks);
+  c["via_polyport"].erase("ping_write_ns");  // the in-process ping's write holds an in-process pong's answer
+  const std::int64_t worst =
+      bench::read_polyport_stats(last_chunk / "polyport-stats.json", daemon_rc, last_chunk / "polyportd.out.err", c);
+  if (worst < 0 || !c["via_polyport"].contains("one_way_ns")) return c;  // no targets: the case failed
+  const std::int64_t v50 = c["via_polyport"]["one_way_ns"]["p50"].get<std::int64_t>();
+  c["targets"] = {{"via_one_way_p50_ns", v50},
+                  {"polyport_in_to_out_p99_ns", worst},
+                  {"in_to_out_p99_within_1us", worst <= 1000}};
+  if (to && c["direct"].contains("one_way_ns")) {
+    const std::int64_t d50 = c["direct"]["one_way_ns"]["p50"].get<std::int64_t>();
+    c["targets"].update({{"direct_one_way_p50_ns", d50},
+                         {"bound_direct_plus_2us_ns", d50 + 2000},
+                         {"via_within_direct_plus_2us", v50 <= d50 + 2000},
+                         {"via_margin_ns", d50 + 2000 - v50}});
+  }
+  return c;
+}
+
+std::string inprocess_verdicts(const Json& c) {
+  const Json t = c.value("targets", Json::object());
+  if (t.empty()) return "targets n/a";
+  const auto verdict = [&](const char* key) {
+    return t.contains(key) && t[key].is_boolean() ? (t[key].get<bool>() ? "ok" : "MISS") : "n/a";
+  };
+  return std::string("via <= direct + 2 us ") + verdict("via_within_direct_plus_2us") + "  in-to-out p99 <= 1 us " +
+         verdict("in_to_out_p99_within_1us");
+}
+
 std::optional<Settings> parse(int argc, char** argv) {
   Settings s;
   for (int i = 1; i < argc; ++i) {
@@ -310,7 +540,7 @@ std::optional<Settings> parse(int argc, char** argv) {
   const int pairs = static_cast<int>(s.models.size() * s.models.size());
   const bool models_ok = std::all_of(s.models.begin(), s.models.end(), [](const std::string& m) {
     const auto& all = all_models();
-    return std::any_of(all.begin(), all.end(), [&](const Model& known) { return known.name == m; });
+    return m == kInprocess || std::any_of(all.begin(), all.end(), [&](const Model& known) { return known.name == m; });
   });
   if (!s.run.finish() || !sizes_ok || s.models.empty() || !models_ok ||
       s.domain_base < 0 || s.domain_base + 5 * pairs > 232 || s.port_base < 1024 || s.port_base + 5 * pairs > 65535) {
@@ -319,20 +549,17 @@ std::optional<Settings> parse(int argc, char** argv) {
   return s;
 }
 
-// The pairs polyport speaks but this runner cannot measure on the host, and why.
-Json not_measured() {
-  return Json::array(
-      {{{"pairs", "inprocess <-> every model"},
-        {"reason", "an in-process component lives inside polyportd: there is no stand-alone ping or pong program of "
-                   "that model, nor a native relay to set beside it; and components run periodically (onExecute), so "
-                   "an in-process echo would measure its period (benchmarks/bench_inproc_connection measures the "
-                   "in-process connection alone)"}}});
-}
 
-// The CAN pairs' entries of "not_measured" for a run of `s`.
+// The pairs polyport speaks but a run of `s` does not measure, and why: the CAN pairs on the
+// host (and CAN <-> in-process anywhere).
 Json can_not_measured(const Settings& s) {
   const bool can = std::find(s.models.begin(), s.models.end(), "can") != s.models.end();
   Json out = Json::array();
+  if (can && std::find(s.models.begin(), s.models.end(), kInprocess) != s.models.end()) {
+    out.push_back({{"pairs", "can <-> inprocess"},
+                   {"reason", "not built: the in-process ping and pong are set against the host models' programs, the "
+                              "CAN pairs run in the vcan guest"}});
+  }
   if (!can) {
     out.push_back({{"pairs", "can <-> every model"},
                    {"reason", "the host kernel has no CAN: the CAN pairs run in the vcan guest (scripts/vcan-run), "
@@ -390,6 +617,7 @@ Json can_settings() {
 // the second bar's figures from the same run).
 bool measures(const Settings& s, const std::string& a, const std::string& b) {
   const bool can = a == "can" || b == "can";
+  if (can && (a == kInprocess || b == kInprocess)) return false;  // see can_not_measured()
   if (s.cross_only && a == b) return false;
   return !(s.can_pairs_only && !can && a != b);
 }
@@ -412,8 +640,8 @@ int main(int argc, char** argv) {
   if (!parsed) {
     std::fprintf(stderr,
                  "usage: %s OUTPUT.json [ROUNDS [WARMUP]] [--chunks N] [--placements unpinned,one-core] [--cpu N]\n"
-                 "       [--models cyclonedds,fastdds,lcm,can] [--sizes 16,1024] [--pairs all|cross|can] [--domain-base N]\n"
-                 "       [--port-base N] [--host-network] [--keep DIR]\n",
+                 "       [--models cyclonedds,fastdds,lcm,inprocess,can] [--sizes 16,1024] [--pairs all|cross|can]\n"
+                 "       [--domain-base N] [--port-base N] [--host-network] [--keep DIR]\n",
                  argv[0]);
     return 2;
   }
@@ -454,11 +682,11 @@ int main(int argc, char** argv) {
        {"cpu_per_message", "the bridging process's CPU per round trip / 2 (each round trip passes it twice)"},
        {"bars", "via one-way p50 <= relay one-way p50 + 2 us (every pair, same case); via one-way p50 <= "
                 "direct(A) + direct(B) + 2 us (2 x direct on the diagonal) for pairs of Cyclone DDS, LCM and CAN, "
-                "reported for Fast DDS"}});
+                "reported for Fast DDS; X -> inprocess and inprocess -> X: via one-way p50 <= direct(X) + 2 us (same "
+                "case); inprocess -> inprocess: none (polyport's own figure)"}});
   if (interfaces > 0) settings.update(can_settings());
   result["settings"] = settings;
-  result["not_measured"] = not_measured();
-  for (Json& entry : can_not_measured(s)) result["not_measured"].push_back(std::move(entry));
+  result["not_measured"] = can_not_measured(s);
   result["cases"] = Json::array();
 
   bool all_ok = true;
@@ -476,15 +704,21 @@ int main(int argc, char** argv) {
           if (bench::interrupted()) break;
           std::fprintf(stderr, "%s %s -> %s %d B ...\n", placement.name.c_str(), a.c_str(), b.c_str(), size);
           const std::string name = placement.name + "-" + a + "-" + b + "-" + std::to_string(size);
-          Json c = run_pair(s, placement, model_named(a), model_named(b), size, d, dir / name);
+          const bool inprocess = a == kInprocess || b == kInprocess;
+          Json c = a == kInprocess ? run_from_inprocess(s, placement, b == kInprocess ? nullptr : &model_named(b), size, d,
+                                                        dir / name)
+                   : b == kInprocess ? run_into_inprocess(s, placement, model_named(a), size, d, dir / name)
+                                     : run_pair(s, placement, model_named(a), model_named(b), size, d, dir / name);
           if (c.is_null()) break;
           all_ok = all_ok && c.contains("targets");
-          bench::print_case(c, a + "->" + b, bench::relay_verdicts(c));
+          bench::print_case(c, a + "->" + b, inprocess ? inprocess_verdicts(c) : bench::relay_verdicts(c));
           result["cases"].push_back(std::move(c));
         }
       }
     }
   }
-  for (Json& c : result["cases"]) add_direct_bar(c, result["cases"]);
+  for (Json& c : result["cases"]) {
+    if (c["from"] != kInprocess && c["to"] != kInprocess) add_direct_bar(c, result["cases"]);  // inprocess: its own
+  }
   return bench::end_run(result, s.run.output, dir, !s.run.keep.empty(), all_ok, t_start);
 }

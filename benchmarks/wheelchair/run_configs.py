@@ -79,6 +79,8 @@ def start(name, config, args, out_dir, started):
     os.makedirs(folder, exist_ok=True)
     env = dict(os.environ)
     env.setdefault("CYCLONEDDS_URI", "file://" + os.path.join(ROOT, "config", "cyclonedds-loopback.xml"))
+    # A Fast DDS program's transports: the file polyport's Fast DDS model defaults to.
+    env.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", os.path.join(ROOT, "config", "fastdds-loopback.xml"))
     bin_dir = args.bin
     for p in config.get("processes", []):
         argv = [a.replace("{bin}", bin_dir).replace("{root}", ROOT) for a in p["argv"]]

@@ -653,6 +653,8 @@ void Engine::describe(nlohmann::json& out) const {
       if (auto* in = dynamic_cast<const DataInPort*>(port.get())) {
         p["policy"] = to_string(in->policy());
         if (in->policy() != QueuePolicy::data) p["depth"] = in->depth();
+        // Handed over on arrival (an adaptor's sink, a CallbackInPort): no queue, whatever the policy says.
+        if (in->sink() != nullptr) p["mode"] = "push";
       }
       if (auto* provided = dynamic_cast<const ProvidedServicePort*>(port.get())) {
         p["service_type"] = provided->service_type();

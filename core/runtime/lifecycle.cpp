@@ -31,6 +31,10 @@ ReturnCode guarded(F&& hook) noexcept {
 
 }  // namespace
 
+Lifecycle::Lifecycle(ComponentBase& component) noexcept : component_(component) { component.attach_lifecycle(this); }
+
+Lifecycle::~Lifecycle() { component_.attach_lifecycle(nullptr); }
+
 std::string_view to_string(LifecycleState state) noexcept {
   switch (state) {
     case LifecycleState::created: return "created";

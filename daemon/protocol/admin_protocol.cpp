@@ -1,6 +1,7 @@
 #include "admin_protocol.hpp"
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <utility>
@@ -163,12 +164,14 @@ bool read_field(Field field, const nlohmann::json& v, Request& request, std::str
       return true;
     case kParameters:
       if (!v.is_object()) {
-        message = "\"parameters\" must be an object of numbers by parameter name";
+        message = "\"parameters\" must be an object of finite numbers by parameter name";
         return false;
       }
       for (const auto& [name, value] : v.items()) {
-        if (name.empty() || !value.is_number()) {
-          message = "\"parameters\" must be an object of numbers by parameter name ('" + name + "' is not)";
+        // JSON has no infinity (and the parser refuses 1e400): checked all the same, since a
+        // threshold of infinity could not be shown back.
+        if (name.empty() || !value.is_number() || !std::isfinite(value.get<double>())) {
+          message = "\"parameters\" must be an object of finite numbers by parameter name ('" + name + "' is not)";
           return false;
         }
         request.parameters.emplace_back(name, value.get<double>());

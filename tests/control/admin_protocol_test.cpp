@@ -231,8 +231,9 @@ TEST(AdminRequest, ParsesAConditionSwitchAndRoundTripsIt) {
            {R"({"v":1,"cmd":"condition","active":true})", "needs \"port\""},
            {R"({"v":1,"cmd":"condition","port":"c.e","active":1})", "\"active\" must be true or false"},
            {R"({"v":1,"cmd":"condition","port":"c.e","active":true,"mode":"twice"})", "\"mode\" must be"},
-           {R"({"v":1,"cmd":"condition","port":"c.e","active":true,"parameters":[1]})", "an object of numbers"},
+           {R"({"v":1,"cmd":"condition","port":"c.e","active":true,"parameters":[1]})", "an object of finite numbers"},
            {R"({"v":1,"cmd":"condition","port":"c.e","active":true,"parameters":{"a":"1"}})", "('a' is not)"},
+           {R"({"v":1,"cmd":"condition","port":"c.e","active":true,"parameters":{"big":1e400}})", "not JSON"},
            {R"({"v":1,"cmd":"trace","port":"c.e","active":true})", "'trace' takes no \"active\""},
        }) {
     EXPECT_FALSE(parse(text, error)) << text;

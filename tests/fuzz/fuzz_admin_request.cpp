@@ -2,14 +2,33 @@
 // client, split into lines by LineBuffer (in chunks, as recv delivers them), each line
 // parsed, an error reply built for a refused one (its id echoed), request_line round-tripped
 // for an accepted one (every command: hello ... reset, get / set of properties, connect /
-// disconnect with policy and depth, trace of a port with count and duration) and a
+// disconnect with policy and depth, trace of a port with count and duration, condition with
+// active, mode and parameters) and a
 // streamed sample line for an accepted trace.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
 #include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "admin_protocol.hpp"
+
+namespace {
+
+// Whether every parameter name is UTF-8 (and so comes back as it was).
+bool utf8_names(const std::vector<std::pair<std::string, double>>& parameters) {
+  try {
+    for (const auto& parameter : parameters) (void)nlohmann::json(parameter.first).dump();
+  } catch (const nlohmann::json::exception&) {
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace polyport::admin;
@@ -38,9 +57,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       ParseError error2;
       const auto back = parse_request(std::string_view(again).substr(0, again.size() - 1), error2);
       // A name that is not UTF-8 is replaced on the way out; everything else survives the
-      // round trip: the command, a connection's depth, and which fields are there.
+      // round trip: the command, a connection's depth, a condition's switch, mode and
+      // parameters (finite numbers: JSON has no infinity), and which fields are there.
       if (!back || back->command != request->command || back->depth != request->depth ||
-          back->count != request->count || back->duration_s != request->duration_s) {
+          back->count != request->count || back->duration_s != request->duration_s ||
+          back->active != request->active || back->mode != request->mode ||
+          (back->parameters != request->parameters && utf8_names(request->parameters))) {
         std::abort();
       }
       if (back->component.empty() != request->component.empty() || back->property.empty() != request->property.empty() ||

@@ -253,11 +253,28 @@ class ConditionClient final : public ComponentBase {
   bool activated_ = false;
 };
 
+// Answers each sample as it arrives (a CallbackInPort), on the writer's thread: the value
+// goes out again on `out`, and `meta_ok` counts those whose meta had the sample's size and a
+// time of entry.
+class Echo final : public ComponentBase {
+ public:
+  void on_in(const std::int64_t& value, const SampleMeta& meta) {
+    if (meta.size == sizeof value && meta.t_in.ns > 0) meta_ok_.write(++meta_ok_count_);
+    out_.write(value);
+  }
+
+ private:
+  CallbackInPort<std::int64_t> in_{*this, "in", &Echo::on_in};
+  OutPort<std::int64_t> out_{*this, "out"};
+  OutPort<std::int64_t> meta_ok_{*this, "meta_ok"};
+  std::int64_t meta_ok_count_ = 0;
+};
+
 // Inside the namespace so that the class names stay unqualified ("Ticker", ...).
 POLYPORT_COMPONENTS(POLYPORT_COMPONENT(Ticker), POLYPORT_COMPONENT(Collector), POLYPORT_COMPONENT(Adder),
                     POLYPORT_COMPONENT(Caller), POLYPORT_COMPONENT(Faulty), POLYPORT_COMPONENT(WrongSize),
                     POLYPORT_COMPONENT(PoseRelay), POLYPORT_COMPONENT(PeerAdder), POLYPORT_COMPONENT(PeerCaller),
                     POLYPORT_COMPONENT(Tunable), POLYPORT_COMPONENT(BatteryServer),
-                    POLYPORT_COMPONENT(ConditionClient))
+                    POLYPORT_COMPONENT(ConditionClient), POLYPORT_COMPONENT(Echo))
 
 }  // namespace polyport::test

@@ -40,35 +40,23 @@
 // loop checks at every wake, so it ends within one period.
 // Memory: the sample logs reserve their capacity at start; samples are taken into caller-owned
 // stack buffers (the types are flat doubles), so the loop does not allocate.
-#include <errno.h>
-#include <linux/can.h>
-#include <linux/can/raw.h>
-#include <net/if.h>
-#include <signal.h>
-#include <sys/socket.h>
-#include <unistd.h>
-
-#include <CLI/CLI.hpp>
 #include <atomic>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <mutex>
+#include <optional>
 #include <string>
 
-#include "can_frames.hpp"
 #include "dds/dds.h"
-#include "loop_stats.hpp"
-#include "steering.hpp"
+#include "node_common.hpp"
 #include "wheelchair.h"
 
 namespace {
 
 namespace wc = polyport::wheelchair;
 
-constexpr int kExitOk = 0;
-constexpr int kExitFailed = 1;
-constexpr int kExitUsage = 2;
+using namespace polyport::wheelchair::node;
 
 constexpr const char* kJoystickTopic = "wheelchair/joystick";
 constexpr const char* kReferenceTopic = "wheelchair/reference";
@@ -78,24 +66,8 @@ constexpr const char* kVoltagesTopic = "wheelchair/voltages";
 // How many samples one take moves at most; with keep_last 1 a reader holds one at a time.
 constexpr int kTakeBatch = 4;
 
-std::atomic<bool> g_stop{false};
-static_assert(std::atomic<bool>::is_always_lock_free);
-extern "C" void on_stop_signal(int) { g_stop.store(true, std::memory_order_relaxed); }
-
-void stop_on_signals() {
-  struct sigaction action {};
-  action.sa_handler = on_stop_signal;
-  sigemptyset(&action.sa_mask);
-  sigaction(SIGINT, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
-}
-
-struct Options {
-  std::string role;
-  int period_ms = 10;
-  std::string interface = "vcan0";
-  std::string summary;
-  std::uint32_t domain = 0;
+struct Options : NodeOptions {
+  Options() { program = "wheelchair_dds_node"; }
 };
 
 // ---- DDS --------------------------------------------------------------------------------
@@ -114,7 +86,7 @@ dds_qos_t* node_qos() {
 // of what could not be created and turns `ok` false.
 class Dds {
  public:
-  explicit Dds(std::uint32_t domain) : qos_(node_qos()) {
+  explicit Dds(int domain) : qos_(node_qos()) {
     participant_ = dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr);
     check(participant_, "participant");
   }
@@ -180,58 +152,6 @@ bool take_newest(dds_entity_t reader, T& last) noexcept {
     if (n < kTakeBatch) break;
   }
   return got;
-}
-
-// ---- The periodic loop and the summary ---------------------------------------------------
-
-struct LoopStats {
-  wc::SampleLog lateness;
-  std::uint64_t periods = 0;
-  std::uint64_t overruns = 0;
-};
-
-// Runs `step` at every deadline until a stop signal; the signal is seen at the next wake.
-template <class Step>
-void run_periodic(int period_ms, LoopStats& stats, Step&& step) {
-  wc::PeriodicTimer timer(static_cast<std::int64_t>(period_ms) * 1'000'000);
-  while (!g_stop.load(std::memory_order_relaxed)) {
-    stats.lateness.add(timer.wait());
-    if (g_stop.load(std::memory_order_relaxed)) break;
-    step();
-    ++stats.periods;
-  }
-  stats.overruns = timer.overruns();
-}
-
-void announce(const Options& options) {
-  std::fprintf(stderr, "wheelchair_dds_node %s: running\n", options.role.c_str());
-  std::fflush(stderr);
-}
-
-// Writes {"role":..,"period_ms":..,"periods":..,"overruns":..,"lateness_ns":{..},"cpu_s":..
-// plus `extra` (",\"key\":value..." or empty)}. No file named: nothing to do.
-bool write_summary(const Options& options, const LoopStats& stats, const std::string& extra) {
-  if (options.summary.empty()) return true;
-  char head[256];
-  std::snprintf(head, sizeof head, R"({"role":"%s","period_ms":%d,"periods":%llu,"overruns":%llu,"lateness_ns":)",
-                options.role.c_str(), options.period_ms, static_cast<unsigned long long>(stats.periods),
-                static_cast<unsigned long long>(stats.overruns));
-  char cpu[64];
-  std::snprintf(cpu, sizeof cpu, R"(,"cpu_s":%.6f)", wc::process_cpu_s());
-  const std::string text = head + stats.lateness.summary_json() + cpu + extra + "}\n";
-  std::FILE* file = std::fopen(options.summary.c_str(), "w");
-  const bool written = file != nullptr && std::fputs(text.c_str(), file) >= 0;
-  const bool closed = file != nullptr && std::fclose(file) == 0;
-  if (!written || !closed) {
-    std::fprintf(stderr, "wheelchair_dds_node: cannot write the summary %s: %s\n", options.summary.c_str(),
-                 std::strerror(errno));
-    return false;
-  }
-  return true;
-}
-
-std::string counter(const char* name, std::uint64_t value) {
-  return std::string(",\"") + name + "\":" + std::to_string(value);
 }
 
 // ---- Role: joystick ------------------------------------------------------------------------
@@ -353,123 +273,31 @@ int run_control(const Options& options) {
 
 // ---- Role: hw ------------------------------------------------------------------------------
 
-// A raw CAN socket bound to `interface`, non-blocking, receiving only the joystick and encoder
-// frames (standard ids, no remote frames). -1 after printing why it could not be opened.
-int open_can(const std::string& interface) {
-  if (interface.empty() || interface.size() >= IFNAMSIZ) {
-    std::fprintf(stderr, "wheelchair_dds_node: bad CAN interface name '%s'\n", interface.c_str());
-    return -1;
-  }
-  const int fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
-  if (fd < 0) {
-    std::fprintf(stderr, "wheelchair_dds_node: cannot open a raw CAN socket: %s\n", std::strerror(errno));
-    return -1;
-  }
-  const can_filter filters[2] = {
-      {wc::can::kJoystickId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
-      {wc::can::kEncoderId, CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG},
-  };
-  if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, filters, sizeof filters) != 0) {
-    std::fprintf(stderr, "wheelchair_dds_node: cannot set the CAN filters: %s\n", std::strerror(errno));
-    close(fd);
-    return -1;
-  }
-  const unsigned index = if_nametoindex(interface.c_str());
-  if (index == 0) {
-    std::fprintf(stderr, "wheelchair_dds_node: no network interface '%s': %s\n", interface.c_str(),
-                 std::strerror(errno));
-    close(fd);
-    return -1;
-  }
-  sockaddr_can address{};
-  address.can_family = AF_CAN;
-  address.can_ifindex = static_cast<int>(index);
-  if (bind(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) {
-    std::fprintf(stderr, "wheelchair_dds_node: cannot bind to CAN interface '%s': %s\n", interface.c_str(),
-                 std::strerror(errno));
-    close(fd);
-    return -1;
-  }
-  return fd;
-}
-
-struct CanCounters {
-  std::uint64_t frames_rx = 0;
-  std::uint64_t bad_frames = 0;
-  std::uint64_t frames_tx = 0;
-  std::uint64_t rx_errors = 0;
-  std::uint64_t tx_errors = 0;
-};
-
 int run_hw(const Options& options) {
-  const int fd = open_can(options.interface);
-  if (fd < 0) return kExitFailed;
+  HwBus bus(options);
+  if (!bus.ok()) return kExitFailed;
   Dds dds(options.domain);
   const dds_entity_t joystick_out = dds.writer(wheelchair_JoystickPosition_desc, kJoystickTopic);
   const dds_entity_t speeds_out = dds.writer(wheelchair_WheelSpeeds_desc, kWheelSpeedsTopic);
   const dds_entity_t voltages_in = dds.reader(wheelchair_MotorVoltages_desc, kVoltagesTopic);
-  if (!dds.ok()) {
-    close(fd);
-    return kExitFailed;
-  }
+  if (!dds.ok()) return kExitFailed;
   announce(options);
 
   LoopStats stats;
-  CanCounters can;
-  const wc::ChairGeometry geometry{};
-  const std::int64_t start_ns = wc::now_ns();
-  wc::JoystickPosition stick;      // centred until the first 0x101
-  wc::EncoderSpeeds encoders;      // at rest until the first 0x181
   wheelchair_MotorVoltages voltages{};
   bool have_voltages = false;
   run_periodic(options.period_ms, stats, [&] {
-    for (;;) {  // drain: everything the kernel queued since the last period
-      can_frame frame{};
-      const ssize_t n = recv(fd, &frame, sizeof frame, MSG_DONTWAIT);
-      if (n < 0) {
-        if (errno == EINTR) continue;
-        if (errno != EAGAIN && errno != EWOULDBLOCK) ++can.rx_errors;
-        break;
-      }
-      ++can.frames_rx;
-      if (n != static_cast<ssize_t>(sizeof frame) || frame.can_dlc != wc::can::kLength) {
-        ++can.bad_frames;
-        continue;
-      }
-      if ((frame.can_id & CAN_SFF_MASK) == wc::can::kJoystickId) {
-        stick = wc::can::unpack_joystick(frame.data);
-      } else {
-        encoders = wc::can::unpack_encoders(frame.data);
-      }
-    }
-    const wheelchair_JoystickPosition joystick{stick.x, stick.y};
+    bus.drain();
+    const wheelchair_JoystickPosition joystick{bus.stick().x, bus.stick().y};
     dds_write(joystick_out, &joystick);
-    const wheelchair_WheelSpeeds speeds{
-        encoders.left_rad_s, encoders.right_rad_s,
-        0.0,  // the heading is unknown to the HW node
-        wc::realised_steering_deg(encoders.left_rad_s, encoders.right_rad_s, geometry),
-        static_cast<double>(wc::now_ns() - start_ns) / 1e9};
+    const wc::WheelSpeeds s = bus.wheel_speeds();
+    const wheelchair_WheelSpeeds speeds{s.left_rad_s, s.right_rad_s, s.heading_deg, s.steering_deg, s.time_s};
     dds_write(speeds_out, &speeds);
-
     if (take_newest(voltages_in, voltages)) have_voltages = true;
-    if (!have_voltages) return;
-    can_frame out{};
-    out.can_id = wc::can::kVoltagesId;
-    out.can_dlc = wc::can::kLength;
-    const wc::can::Payload payload = wc::can::pack(wc::MotorVoltages{voltages.left_v, voltages.right_v});
-    std::memcpy(out.data, payload.data(), payload.size());
-    if (write(fd, &out, sizeof out) == static_cast<ssize_t>(sizeof out)) {
-      ++can.frames_tx;
-    } else {
-      ++can.tx_errors;
-    }
+    if (have_voltages) bus.send(wc::MotorVoltages{voltages.left_v, voltages.right_v});
   });
   dds.close();
-  close(fd);
-  const std::string extra = counter("frames_rx", can.frames_rx) + counter("frames_tx", can.frames_tx) +
-                            counter("bad_frames", can.bad_frames) + counter("rx_errors", can.rx_errors) +
-                            counter("tx_errors", can.tx_errors);
-  return write_summary(options, stats, extra) ? kExitOk : kExitFailed;
+  return write_summary(options, stats, bus.summary_fields()) ? kExitOk : kExitFailed;
 }
 
 }  // namespace
@@ -477,24 +305,11 @@ int run_hw(const Options& options) {
 int main(int argc, char** argv) {
   CLI::App app{"wheelchair_dds_node: the wheelchair's joystick, control or hw component (or a stick player) as a Cyclone DDS program "
                "(configuration from CYCLONEDDS_URI)"};
-  app.footer("Exit codes:\n  0  stopped by SIGINT or SIGTERM\n  1  setup failed, or the summary could not be written\n"
-             "  2  bad command line\n");
   Options options;
   app.add_option("--role", options.role, "the component this process runs")
       ->required()
       ->check(CLI::IsMember({"joystick", "control", "hw", "stick"}));
-  app.add_option("--period-ms", options.period_ms, "the loop's period, milliseconds")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 60000));
-  app.add_option("--if", options.interface, "hw: the CAN interface")->capture_default_str();
-  app.add_option("--summary", options.summary, "write the run's summary (JSON) to this file at exit");
-  app.add_option("--domain", options.domain, "the DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? kExitOk : kExitUsage;
-  }
+  if (const std::optional<int> done = parse_node_options(app, options, argc, argv)) return *done;
   stop_on_signals();
   if (options.role == "joystick") return run_joystick(options);
   if (options.role == "control") return run_control(options);

@@ -6,7 +6,9 @@
 //   class JoystickComp : public polyport::ComponentBase {
 //     polyport::InPort<Position> position_{*this, "position"};
 //     polyport::OutPort<Reference> reference_{*this, "reference"};
+//     polyport::CallbackInPort<Stop> stop_{*this, "stop", &JoystickComp::on_stop};
 //     polyport::ReturnCode onExecute() override { ... }
+//     void on_stop(const Stop& stop, const polyport::SampleMeta& meta);  // as each arrives
 //   };
 //   POLYPORT_COMPONENTS(POLYPORT_COMPONENT(JoystickComp))
 //
@@ -70,6 +72,9 @@ struct PortDeclaration {
     ProvidedServicePort::Dispatch dispatch = ProvidedServicePort::Dispatch::own_thread;
   };
   std::vector<Operation> operations;
+  // A data input port in push mode (CallbackInPort): the engine hands its samples to this
+  // sink on the writer's thread instead of buffering them. Null: pull mode (InPort).
+  SampleSink* sink = nullptr;
 };
 
 class ComponentBase {
@@ -103,6 +108,12 @@ class ComponentBase {
   }
 
   const std::string& instance_name() const noexcept { return instance_name_; }
+  // The component's lifecycle state as the engine drives it (created until a Lifecycle is
+  // attached). Any thread; what CallbackInPort checks before each sample.
+  LifecycleState state() const noexcept {
+    const Lifecycle* lifecycle = lifecycle_.load(std::memory_order_acquire);
+    return lifecycle ? lifecycle->state() : LifecycleState::created;
+  }
   // The blocking mode of the component's required services (SmartSoft's blocking()): while
   // it is off no call waits; a query, receive or receive_wait under way ends at once with
   // Status::cancelled. The engine switches it off before deactivating, finalizing or
@@ -159,6 +170,8 @@ class ComponentBase {
   // The context that runs this component (ExecutionContext::add); null while passive.
   void attach_execution_context(ExecutionContext* context) noexcept { context_ = context; }
   ExecutionContext* execution_context() const noexcept { return context_; }
+  // The Lifecycle that drives this component (its constructor and destructor call this).
+  void attach_lifecycle(const Lifecycle* lifecycle) noexcept { lifecycle_.store(lifecycle, std::memory_order_release); }
 
  private:
   std::deque<PortDeclaration> declarations_;  // a deque: declarations keep their address
@@ -167,6 +180,7 @@ class ComponentBase {
   double period_seconds_ = 0.0;
   std::atomic<bool> blocking_{true};
   ExecutionContext* context_ = nullptr;
+  std::atomic<const Lifecycle*> lifecycle_{nullptr};
   Port* notifications_ = nullptr;
   bool auto_notifications_ = false;
   std::atomic<std::uint64_t> notification_sequence_{0};
@@ -212,6 +226,72 @@ class InPort {
   DataInPort& port() const noexcept { return *static_cast<DataInPort*>(port_); }
 
  private:
+  Port* port_ = nullptr;
+};
+
+// An input port whose samples are handed to the component as they arrive, as RTC's
+// ON_RECEIVED data listener or an OPRoS event callback does, instead of waiting in a buffer
+// for the next onExecute: `on_data(sample, meta)`, a member of the component, with a copy of
+// the sample (on the stack, valid during the call) and its SampleMeta (size, t_in when it
+// entered polyport, the source's own stamp if its model gives one). The engine binds the port
+// in push mode (DataInPort::set_sink): no buffer, no allocation, no lock of polyport's.
+//
+// Threading: on_data runs on the writer's thread, whichever that is: the receive thread of
+// a foreign model's SDK (an LCM or DDS listener), another component's execution context (in
+// the middle of its write()), or the timer thread handing over a watchdog's safe value. So:
+//  - it must not block, and should be short: the writer (and, for a foreign model, its
+//    receive thread) waits for it;
+//  - it may run at the same time as the component's own hooks (onExecute on its context) and,
+//    when several connections feed the port from several threads, at the same time as itself:
+//    state it shares with them needs atomics (or its own care);
+//  - it may write an OutPort (an echo answers from the callback), but DataOutPort::write is
+//    one writer at a time: a port written from on_data must not also be written from
+//    onExecute or from another thread at the same time;
+//  - a write that comes back into this port on the same thread (an in-process loop) calls
+//    on_data again, nested: a component that answers what answers it must unwind itself (a
+//    trampoline: note the work, return, and let the outermost call do it);
+//  - it must not throw (an exception is caught and counted as the sample's sink error).
+// Samples are handed over only while the component is active (between onActivated and
+// onDeactivated); others are refused (not_active, counted by the connection as sink errors),
+// so on_data never runs before onActivated has set the component up. One that began just
+// before a deactivation may still be running while onDeactivated starts.
+// The profile declares the port as any data input port (its policy and depth do not apply).
+template <class T>
+class CallbackInPort final : private SampleSink {
+ public:
+  template <class C>
+  CallbackInPort(C& owner, std::string name, void (C::*on_data)(const T&, const SampleMeta&))
+      : owner_(owner), on_data_(static_cast<Handler>(on_data)) {
+    static_assert(std::is_base_of_v<ComponentBase, C>, "the handler must be a member of the component");
+    PortDeclaration declaration =
+        detail::make_declaration<T>(std::move(name), PortKind::data, PortDirection::input, &port_);
+    declaration.sink = this;
+    owner.declare_port(std::move(declaration));
+  }
+  CallbackInPort(const CallbackInPort&) = delete;
+  CallbackInPort& operator=(const CallbackInPort&) = delete;
+
+  // Its connections and settings (statistics); never read() it: it buffers nothing.
+  DataInPort& port() const noexcept { return *static_cast<DataInPort*>(port_); }
+
+ private:
+  using Handler = void (ComponentBase::*)(const T&, const SampleMeta&);
+
+  Status on_sample(const std::byte* data, const SampleMeta& meta) noexcept override {
+    if (meta.size < sizeof(T)) return Status::bad_size;
+    if (owner_.state() != LifecycleState::active) return Status::not_active;
+    T sample;  // aligned for T, whatever the wire left the bytes at
+    std::memcpy(&sample, data, sizeof(T));
+    try {
+      (owner_.*on_data_)(static_cast<const T&>(sample), meta);
+    } catch (...) {
+      return Status::error;
+    }
+    return Status::ok;
+  }
+
+  ComponentBase& owner_;
+  Handler on_data_;
   Port* port_ = nullptr;
 };
 

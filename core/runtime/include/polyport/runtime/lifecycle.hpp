@@ -40,7 +40,11 @@ std::optional<LifecycleCommand> parse_lifecycle_command(std::string_view name) n
 
 class Lifecycle {
  public:
-  explicit Lifecycle(ComponentBase& component) noexcept : component_(component) {}
+  // Tells `component` of itself (ComponentBase::state), until destroyed.
+  explicit Lifecycle(ComponentBase& component) noexcept;
+  ~Lifecycle();
+  Lifecycle(const Lifecycle&) = delete;
+  Lifecycle& operator=(const Lifecycle&) = delete;
 
   LifecycleState state() const noexcept { return state_.load(std::memory_order_acquire); }
   // Applies a command; returns precondition_not_met when the state does not allow it, or the
