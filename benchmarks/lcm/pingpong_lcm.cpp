@@ -96,11 +96,12 @@ int ping(int port, int size, int rounds, int warmup, const char* samples) {
       &echoed);
   T sample{};
   // UDP multicast has no discovery: probe until the path answers, with sequence numbers from
-  // 2^62 up (above any measured one): positive, so that they survive a path through a model
+  // 2^52 up (above any measured one): positive, so that they survive a path through a model
   // whose seq is unsigned (the cross-model matrix's DDS pong), where polyport saturates a
-  // negative one at 0.
+  // negative one at 0, and exact in a double, so that they survive one whose seq is a DBC
+  // signal (the matrix's CAN pong: physical values are doubles).
   const std::int64_t deadline = now_ns() + 30'000'000'000;
-  for (std::int64_t probe = std::int64_t{1} << 62;; ++probe) {
+  for (std::int64_t probe = std::int64_t{1} << 52;; ++probe) {
     sample.seq = probe;
     Generated<T>::publish(lcm, kPing, &sample);
     if (handle_until(lcm, 100, [&] { return echoed == probe; })) break;

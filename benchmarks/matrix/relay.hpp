@@ -13,9 +13,11 @@
 //   relay_X_Y PING_MODEL DOMAIN_PING DOMAIN_PONG SIZE
 //     PING_MODEL  X or Y (e.g. cyclonedds or lcm): the ping program's model; the pong
 //                 program's is the other
-//     DOMAIN_*    a DDS domain, or for LCM the port of udpm://239.255.76.67:PORT?ttl=0
+//     DOMAIN_*    a DDS domain, for LCM the port of udpm://239.255.76.67:PORT?ttl=0, for CAN
+//                 the N of the interface vcanN (side_can.hpp)
 //     SIZE        16 or 1024 (the ping-pong types of benchmarks/dds/pingpong.idl and
-//                 benchmarks/lcm/pingpong.lcm)
+//                 benchmarks/lcm/pingpong.lcm); CAN carries them in classic 8-byte frames and
+//                 CAN FD 64-byte frames (side_can.hpp)
 //   Runs until SIGINT / SIGTERM.
 //
 // Threads: a DDS side forwards from its SDK's receive thread (a data-available listener, as

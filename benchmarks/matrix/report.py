@@ -10,12 +10,20 @@ matrix:
   RESULTS/matrix-STAMP.png    the heat map: cell = via polyport median one-way us, annotated
                               with the native relay's median and whether the bars hold
 
-The CAN diagonal (CAN -> CAN, measured in the vcan guest) comes from the newest
+The CAN pairs (the CAN row and column: classic 8-byte frames in the 16 B class, CAN FD 64-byte
+frames in the 1 KiB class) are measured in the
+vcan guest by a run of their own, RESULTS/matrix-STAMP-vcan.json (bench_matrix --pairs can
+inside scripts/vcan-run; scripts/bench_matrix.sh runs both): given after the host file, its
+CAN pairs fill the same tables and heat map, marked as measured in the guest (user-mode Linux:
+every figure inflated; a CAN pair's bars compare it with its relay and with direct figures
+of the same guest run). Its other diagonal cases serve those bars and show only where the host
+file has no figures of its own. Without a CAN run, the CAN diagonal comes from the newest
 can_pingpong-*.json in the results directory, a different run: the tables say so. Nothing is
 smoothed or hard-coded: every number comes from those files. Plots use matplotlib (Debian:
 python3-matplotlib); run with /usr/bin/python3.
 
-  /usr/bin/python3 benchmarks/matrix/report.py RESULTS/matrix-STAMP.json"""
+  /usr/bin/python3 benchmarks/matrix/report.py RESULTS/matrix-STAMP.json [RESULTS/matrix-STAMP-vcan.json]
+  (either alone works too; the first file named gets "pairs" and names the .md and .png)"""
 import argparse
 import glob
 import json
@@ -82,7 +90,7 @@ def pair_of(case, source):
         errors.append(case["polyport_error"])
     return {
         "from": case["from"], "to": case["to"], "placement": case["placement"], "size_bytes": case["size_bytes"],
-        "measured": True, "source": source,
+        "measured": True, "source": source, "can_frame_bytes": case.get("can_frame_bytes"),
         "direct_one_way_ns": ({"p50": p(case, "direct", "p50"), "p99": p(case, "direct", "p99")}
                               if same or into_inprocess(case) else None),
         "via_polyport_one_way_ns": {"p50": p(case, "via_polyport", "p50"), "p99": p(case, "via_polyport", "p99")},
@@ -125,22 +133,72 @@ def can_pairs(results):
     return out
 
 
-def not_measured(matrix):
-    """Every ordered pair of ALL_MODELS that has no figures, with the reason."""
+def not_measured(runs, pairs, sizes):
+    """Every ordered pair of ALL_MODELS (with CAN: and size) that has no figures, with the reason
+    the result files give (an entry naming the size first)."""
+    entries = [e for m in runs for e in m.get("not_measured", [])]
+
+    def reason_for(prefix, size):
+        named = [e for e in entries if e["pairs"].startswith(prefix) and e.get("size_bytes") == size]
+        other = [e for e in entries if e["pairs"].startswith(prefix) and "size_bytes" not in e]
+        return next((e["reason"] for e in named + other), None)
+
     out = []
-    measured = {(c["from"], c["to"]) for c in matrix["cases"]}
     for a in ALL_MODELS:
         for b in ALL_MODELS:
-            if (a, b) in measured:
-                continue
-            if "can" in (a, b) and a != b:
-                reason = next(r["reason"] for r in matrix["not_measured"] if r["pairs"].startswith("can"))
-            elif "inprocess" in (a, b):
-                reason = "not in this run (bench_matrix --models)"
-            else:
-                continue
-            out.append({"from": a, "to": b, "measured": False, "reason": reason})
+            if "can" in (a, b):
+                if "inprocess" in (a, b):
+                    # Not size by size: the in-process pairs run on the host, the CAN pairs in the guest.
+                    if not any(q["from"] == a and q["to"] == b for q in pairs):
+                        out.append({"from": a, "to": b, "measured": False,
+                                    "reason": reason_for("can <-> inprocess", None) or CAN_INPROCESS})
+                    continue
+                for size in sizes:
+                    if any(q["from"] == a and q["to"] == b and (q["size_bytes"] == size or not from_run(q))
+                           for q in pairs):
+                        continue
+                    reason = reason_for("can <-> every", size)
+                    if reason is not None:
+                        out.append({"from": a, "to": b, "size_bytes": size, "measured": False, "reason": reason})
+            elif "inprocess" in (a, b) and not any(q["from"] == a and q["to"] == b for q in pairs):
+                out.append({"from": a, "to": b, "measured": False, "reason": "not in this run (bench_matrix --models)"})
     return out
+
+
+def shown(model, pairs, missing):
+    """A model with a row: one that has figures, or CAN while its pairs are listed missing."""
+    return any(model in (q["from"], q["to"]) for q in pairs) or (
+        model == "can" and any("size_bytes" in m and "can" in (m["from"], m["to"]) for m in missing))
+
+
+def is_missing(missing, a, b, size):
+    return any(m["from"] == a and m["to"] == b and m.get("size_bytes", size) == size for m in missing)
+
+
+def from_run(q):
+    """A pair of the matrix files given (not the CAN diagonal of a can_pingpong run)."""
+    return q["source"] in ("matrix", GUEST)
+
+
+def find_cell(pairs, placement, a, b, size):
+    """The pair of a cell: `placement`'s; for a CAN pair (measured in the guest, in its own
+    placements) any placement's; for CAN -> CAN also a can_pingpong run's."""
+    q = find(pairs, placement, a, b, size)
+    if q is None and "can" in (a, b):
+        same = [x for x in pairs if x["from"] == a and x["to"] == b and x["size_bytes"] == size and from_run(x)]
+        q = same[0] if same else None
+    if q is None and a == b == "can":
+        q = find_any_size([x for x in pairs if not from_run(x)], placement, "can")
+    return q
+
+
+def mark(q):
+    return " ‡" if q["source"] == GUEST else "" if q["source"] == "matrix" else " †"
+
+
+GUEST = "matrix, vcan guest"
+CAN_INPROCESS = ("the in-process ping and pong run against the host models' programs, the CAN pairs "
+                 "in the vcan guest")
 
 
 def cell_text(pair):
@@ -161,7 +219,7 @@ def cell_text(pair):
     return text
 
 
-def markdown(matrix, pairs, missing, json_name):
+def markdown(matrix, runs, pairs, missing, json_name):
     h = matrix["host"]
     s = matrix["settings"]
     lines = ["# Cross-model latency matrix", "",
@@ -177,9 +235,16 @@ def markdown(matrix, pairs, missing, json_name):
              "relay exists for them, the cell shows [direct X] instead of (relay) and the bar is via <= direct(X) + "
              "2 us, same case; in-process -> in-process: polyport's own figure, no bar. CPU per message: the "
              "bridging process's CPU time per round trip / 2.", ""]
-    placements = sorted({q["placement"] for q in pairs if q["source"] == "matrix"})
-    sizes = sorted({q["size_bytes"] for q in pairs if q["source"] == "matrix"})
-    models = [m for m in ALL_MODELS if any(m in (q["from"], q["to"]) for q in pairs)]
+    guest = next((m for m in runs if m is not matrix and is_guest(m)), matrix if is_guest(matrix) else None)
+    if guest is not None:
+        g = guest["settings"]
+        lines += ["CAN pairs (‡): run %s %s; %d measured round trips per series in %d chunks, git %s." % (
+            guest["started_utc"], g.get("where", "under scripts/vcan-run"), g["round_trips"], g["chunks"],
+            guest.get("git_revision", "?")), ""]
+    placements = sorted({q["placement"] for q in pairs if q["source"] == "matrix"} or
+                        {q["placement"] for q in pairs if from_run(q)})
+    sizes = sorted({q["size_bytes"] for q in pairs if from_run(q)})
+    models = [m for m in ALL_MODELS if shown(m, pairs, missing)]
     for placement in placements:
         for size in sizes:
             lines += ["## %s, %d B: via polyport (relay) median one-way us" % (placement, size), "",
@@ -188,11 +253,9 @@ def markdown(matrix, pairs, missing, json_name):
             for a in models:
                 row = []
                 for b in models:
-                    q = find(pairs, placement, a, b, size)
-                    if q is None and a == b == "can":
-                        q = find_any_size(pairs, placement, "can")
+                    q = find_cell(pairs, placement, a, b, size)
                     if q is None:
-                        row.append("not measured" if not measurable(a, b) else "-")
+                        row.append("not measured" if is_missing(missing, a, b, size) else "-")
                         continue
                     bars = q["bars"]
                     if a == b == "inprocess":
@@ -203,13 +266,18 @@ def markdown(matrix, pairs, missing, json_name):
                                                    us((q["direct_one_way_ns"] or {}).get("p50")),
                                                    verdict(bars["via_within_direct_bound"])))
                         continue
-                    mark = verdict(bars["via_within_relay_plus_2us"])
                     row.append("%s (%s) %s%s" % (us(q["via_polyport_one_way_ns"]["p50"]),
-                                                 us(q["via_native_relay_one_way_ns"]["p50"]), mark,
-                                                 " †" if q["source"] != "matrix" else ""))
+                                                 us(q["via_native_relay_one_way_ns"]["p50"]),
+                                                 verdict(bars["via_within_relay_plus_2us"]), mark(q)))
                 lines.append("| %s | %s |" % (LABEL[a], " | ".join(row)))
             lines.append("")
-    can_source = next((q["source"] for q in pairs if q["source"] != "matrix"), None)
+    if any(q["source"] == GUEST for q in pairs):
+        lines += ["‡ CAN pairs: classic CAN frames of 8 data bytes in the 16 B tables, CAN FD frames of 64 in the "
+                  "1 KiB ones (seq; the other model's pad not carried), measured in the vcan guest (user-mode Linux, one CPU; its own placement, shown in every table): each system call "
+                  "there (a clock read too, ~15 us) goes through the guest kernel process, so every figure is "
+                  "inflated. Compare such a pair with its relay and the guest's direct figures (the bars do), not "
+                  "with the host's cells.", ""]
+    can_source = next((q["source"] for q in pairs if not from_run(q)), None)
     if can_source is not None:
         lines += ["† CAN -> CAN: classic CAN (8 data bytes) from `%s`, run in the vcan guest (user-mode Linux, one "
                   "CPU), not in this run." % can_source, ""]
@@ -225,7 +293,9 @@ def markdown(matrix, pairs, missing, json_name):
         if b["via_within_direct_bound"] is not None and not b["direct_bound_is_a_bar"]:
             direct_verdict += " (info)"
         lines.append("| %s | %s | %s | %s | %s/%s | %s/%s | %s/%s | %s | %s | %s | %s | %s | %s/%s |" % (
-            q["placement"], LABEL[q["from"]], LABEL[q["to"]], q["size_bytes"], us(d.get("p50")), us(d.get("p99")),
+            q["placement"], LABEL[q["from"]], LABEL[q["to"]],
+            "%d%s" % (q["size_bytes"], " (CAN %d)" % q["can_frame_bytes"] if q.get("can_frame_bytes") else ""),
+            us(d.get("p50")), us(d.get("p99")),
             us(q["via_polyport_one_way_ns"]["p50"]), us(q["via_polyport_one_way_ns"]["p99"]),
             us(q["via_native_relay_one_way_ns"]["p50"]), us(q["via_native_relay_one_way_ns"]["p99"]),
             verdict(b["via_within_relay_plus_2us"]), us(b["direct_bound_ns"]), direct_verdict,
@@ -236,14 +306,16 @@ def markdown(matrix, pairs, missing, json_name):
     lines += ["", "## Not measured", ""]
     reasons = {}
     for m in missing:
-        reasons.setdefault(m["reason"], []).append("%s -> %s" % (LABEL[m["from"]], LABEL[m["to"]]))
+        reasons.setdefault(m["reason"], []).append("%s -> %s%s" % (
+            LABEL[m["from"]], LABEL[m["to"]], " (%d B)" % m["size_bytes"] if "size_bytes" in m else ""))
     for reason, which in reasons.items():
-        lines.append("- %s: %s" % (", ".join(which), reason))
+        lines.append("- %s: %s" % (", ".join(dict.fromkeys(which)), reason))
     return "\n".join(lines) + "\n"
 
 
-def measurable(a, b):
-    return not ("can" in (a, b) and a != b)
+def is_guest(run):
+    """A run with CAN pairs (under scripts/vcan-run)."""
+    return "vcan_run" in run.get("settings", {})
 
 
 def find(pairs, placement, a, b, size):
@@ -257,42 +329,49 @@ def find_any_size(pairs, placement, model):
     return next((q for q in same if q["placement"] == placement), same[0] if same else None)
 
 
-def heat_map(pairs, png, title):
+def heat_map(pairs, missing, png, title):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.colors
     import numpy as np
 
-    placements = sorted({q["placement"] for q in pairs if q["source"] == "matrix"})
-    sizes = sorted({q["size_bytes"] for q in pairs if q["source"] == "matrix"})
-    models = [m for m in ALL_MODELS if m != "inprocess" and any(q["from"] == m for q in pairs)] + ["inprocess"]
+    placements = sorted({q["placement"] for q in pairs if q["source"] == "matrix"} or
+                        {q["placement"] for q in pairs if from_run(q)})
+    sizes = sorted({q["size_bytes"] for q in pairs if from_run(q)})
+    models = [m for m in ALL_MODELS if m != "inprocess" and shown(m, pairs, missing)] + ["inprocess"]
     panels = [(pl, sz) for pl in placements for sz in sizes]
     fig, axes = plt.subplots(len(placements), len(sizes), figsize=(8.5 * len(sizes), 7.5 * len(placements)),
                              squeeze=False)
     vmax = max(q["via_polyport_one_way_ns"]["p50"] or 0 for q in pairs) / 1000.0
+    # A logarithmic scale: the vcan guest's CAN cells are several times the host's; from 10 us (the
+    # in-process diagonal's fraction of a microsecond takes the lightest colour).
+    vmin = max(min((q["via_polyport_one_way_ns"]["p50"] or vmax * 1000) for q in pairs) / 1000.0, 10.0)
+    norm = matplotlib.colors.LogNorm(vmin=vmin, vmax=max(vmax, vmin * 1.01))
     for (pl, sz), ax in zip(panels, axes.flat):
         grid = np.full((len(models), len(models)), np.nan)
         for i, a in enumerate(models):
             for j, b in enumerate(models):
-                q = find(pairs, pl, a, b, sz) or (find_any_size(pairs, pl, "can") if a == b == "can" else None)
+                q = find_cell(pairs, pl, a, b, sz)
                 if q is not None and q["via_polyport_one_way_ns"]["p50"] is not None:
                     grid[i, j] = q["via_polyport_one_way_ns"]["p50"] / 1000.0
-                    text = cell_text(q) + ("\n(vcan guest, 8 B)" if q["source"] != "matrix" else "")
-                    dark = grid[i, j] > 0.6 * vmax
+                    text = cell_text(q) + ("\n(vcan guest, %s B)" % (q.get("can_frame_bytes") or 8)
+                                           if q["source"] != "matrix" else "")
+                    dark = norm(grid[i, j]) > 0.6
                     ax.text(j, i, text, ha="center", va="center", fontsize=6.5, color="white" if dark else "black")
                 else:
-                    ax.text(j, i, "not\nmeasured" if not measurable(a, b) else "-", ha="center", va="center",
+                    ax.text(j, i, "not\nmeasured" if is_missing(missing, a, b, sz) else "-", ha="center", va="center",
                             fontsize=7, color="dimgray")
         cmap = plt.get_cmap("YlOrRd").copy()
         cmap.set_bad("lightgray")
-        image = ax.imshow(np.ma.masked_invalid(grid), cmap=cmap, vmin=0, vmax=vmax)
+        image = ax.imshow(np.ma.masked_invalid(grid), cmap=cmap, norm=norm)
         ax.set_xticks(range(len(models)), [LABEL[m] for m in models], fontsize=8)
         ax.set_yticks(range(len(models)), [LABEL[m] for m in models], fontsize=8)
         ax.set_xlabel("target model (pong)")
         ax.set_ylabel("source model (ping)")
         ax.set_title("%s, %d B: one-way p50/p99 us; relay+2: via <= relay + 2 us;\ndirect: via <= direct(from) + "
                      "direct(to) + 2 us" % (pl, sz), fontsize=9)
-        fig.colorbar(image, ax=ax, shrink=0.7, label="via polyport median one-way (us)")
+        fig.colorbar(image, ax=ax, shrink=0.7, label="via polyport median one-way (us, log scale)")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(png, dpi=110)
@@ -300,25 +379,35 @@ def heat_map(pairs, png, title):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("matrix_json")
+    parser.add_argument("matrix_json", nargs="+", help="the host run's file, the vcan guest's, or both")
     parser.add_argument("--results", help="where the CAN ping-pong results are (default: the JSON's directory)")
     args = parser.parse_args()
-    with open(args.matrix_json) as f:
-        matrix = json.load(f)
-    results = args.results or os.path.dirname(os.path.abspath(args.matrix_json))
-    pairs = [pair_of(c, "matrix") for c in matrix["cases"]]
-    pairs += can_pairs(results)
-    missing = not_measured(matrix)
+    runs = []
+    for path in args.matrix_json:
+        with open(path) as f:
+            runs.append(json.load(f))
+    matrix = runs[0]
+    results = args.results or os.path.dirname(os.path.abspath(args.matrix_json[0]))
+    pairs = [pair_of(c, "matrix") for m in runs if not is_guest(m) for c in m["cases"]]
+    for m in (m for m in runs if is_guest(m)):
+        # The guest's CAN pairs; its other diagonals only where no host run measured them.
+        for c in m["cases"]:
+            if "can" in (c["from"], c["to"]) or find(pairs, c["placement"], c["from"], c["to"], c["size_bytes"]) is None:
+                pairs.append(pair_of(c, GUEST))
+    if not any(q["from"] == q["to"] == "can" for q in pairs):
+        pairs += can_pairs(results)
+    missing = not_measured(runs, pairs, sorted({q["size_bytes"] for q in pairs if from_run(q)}))
     matrix["pairs"] = pairs + missing
-    with open(args.matrix_json, "w") as f:
+    with open(args.matrix_json[0], "w") as f:
         json.dump(matrix, f, indent=2)
         f.write("\n")
-    stem = os.path.splitext(args.matrix_json)[0]
+    stem = os.path.splitext(args.matrix_json[0])[0]
     with open(stem + ".md", "w") as f:
-        f.write(markdown(matrix, pairs, missing, os.path.basename(args.matrix_json)))
-    heat_map(pairs, stem + ".png", "polyport cross-model matrix, %s, %s CPUs (%s)" % (
+        f.write(markdown(matrix, runs, pairs, missing,
+                         ", ".join("`%s`" % os.path.basename(p) for p in args.matrix_json).strip("`")))
+    heat_map(pairs, missing, stem + ".png", "polyport cross-model matrix, %s, %s CPUs (%s)" % (
         matrix["started_utc"], matrix["host"].get("nproc"), matrix["host"].get("cpu")))
-    print("report: %s.md, %s.png; pairs in %s" % (stem, stem, args.matrix_json), file=sys.stderr)
+    print("report: %s.md, %s.png; pairs in %s" % (stem, stem, args.matrix_json[0]), file=sys.stderr)
     misses = [q for q in pairs if q["bars"]["via_within_relay_plus_2us"] is False or
               (q["bars"]["via_within_direct_bound"] is False and q["bars"]["direct_bound_is_a_bar"])]
     for q in misses:

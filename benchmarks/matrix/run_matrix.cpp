@@ -35,26 +35,47 @@
 // 64 on the other, which is narrowing both ways, so each DDS <-> LCM connection carries
 // <mapping><field target="seq" source="seq" allow_narrowing="true"/></mapping>. A narrowed
 // value saturates (docs/PROFILES.md): the ping programs' sequence numbers are from 0 up, and
-// the LCM ping's probes from 2^62 up (they were negative, which saturated at 0 on the way
+// the LCM ping's probes from 2^52 up (they were negative, which saturated at 0 on the way
 // through a DDS pong), so none saturates. Cyclone DDS <-> Fast DDS share the IDL types: a
 // passthrough, no mapping.
+//
+// CAN (--models can,..., inside scripts/vcan-run: the host kernel has no CAN): pingpong_can
+// (benchmarks/can, raw SocketCAN) against the other models' programs: in the 16 B class
+// classic 8-byte frames of pingpong.dbc (Ping 0x100, Pong 0x101, one 64-bit signal seq), in
+// the 1 KiB class CAN FD 64-byte frames of pingpong_fd.dbc (the same, seq in the first 8
+// bytes, the rest zero; the interfaces need the FD MTU: vcan-run --fd). Via polyport: a
+// socketcan component per side; a DBC signal is a physical double, exact up to 2^53, so the
+// ping programs' sequence numbers stay below (measured ones from 0, the CAN and LCM pings'
+// probes from 2^52) and each CAN <-> other connection carries kCanMapping (seq narrowed into
+// the integer, pad zero: no signal carries it). The native relays are relay_can_<sdk>
+// (side_can.hpp: a raw CAN socket; pad not carried either). Each CAN pair takes five
+// interfaces (vcanN.., a domain's N), so --pairs can with all four models needs
+// --interfaces 35.
 //
 //   bench_matrix OUTPUT.json [ROUNDS [WARMUP]] [options]      (scripts/bench_matrix.sh)
 //     --chunks N, --placements LIST, --cpu N, --keep DIR   as the same-model runners
 //                        (benchmarks/common/runner.hpp RunOptions)
-//     --models LIST      cyclonedds,fastdds,lcm,inprocess (default: all four)
+//     --models LIST      cyclonedds,fastdds,lcm,inprocess,can (default: the first four; can
+//                        where the SocketCAN model is built, and only with vcan interfaces,
+//                        see above)
 //     --sizes LIST       16,1024 (default: both)
-//     --pairs all|cross  cross: leave out the diagonal (default: all)
+//     --pairs all|cross|can  cross: leave out the diagonal; can: the pairs with CAN on a side
+//                        and every diagonal (the direct figures of the second bar, from the
+//                        same run: the vcan guest's figures are its own) (default: all)
 //     --domain-base N    first DDS domain; each pair takes 5 (default 150)
 //     --port-base N      first LCM port; each pair takes 5 (default 7800)
 //     --host-network     as bench_lcm_pingpong: use the host's network (239.255.76.67 must
-//                        have a route) instead of a private network namespace
+//                        have a route) instead of a private network namespace; with CAN
+//                        pairs, the namespace scripts/vcan-run gives is used as it is, and its
+//                        loopback gets the route (VCAN_RUN_IN uml or netns), unless this is given
 //
 // Network: as the LCM runner, a network namespace of the runner's own (needs root) with
 // loopback up and 239.255.76.67 routed there; the DDS programs use the loopback
 // configurations polyport's DDS models default to (config/cyclonedds-loopback.xml,
 // config/fastdds-loopback.xml), as in the DDS runner.
 // Threads: one (benchmarks/common/runner.hpp).
+#include <net/if.h>
+
 #include <algorithm>
 #include <chrono>
 #include <csignal>
@@ -75,6 +96,8 @@ using bench::Json;
 using bench::Placement;
 
 constexpr const char* kLcmGroup = "239.255.76.67";
+// A CAN frame's data bytes in a size class: classic in the 16 B one, FD in the 1 KiB one.
+int can_frame_bytes(int size) { return size == 16 ? 8 : 64; }
 
 // What the runner needs of a model: its ping-pong program, types and wire names.
 struct Model {
@@ -82,18 +105,32 @@ struct Model {
   std::string program;
   std::string types_file;
   bool lcm;
+  bool can = false;  // its components are written by can_component()
   std::string type(int size) const {
     if (lcm) return size == 16 ? "bench_lcm::ping16_t" : "bench_lcm::ping1k_t";
     return size == 16 ? "bench::Ping16" : "bench::Ping1k";
   }
   std::string ping() const { return lcm ? "PING" : "ping"; }
   std::string pong() const { return lcm ? "PONG" : "pong"; }
+  // The size its ping-pong program takes for a case of `size` (16 or 1024): CAN's frame.
+  int program_size(int size) const { return can ? can_frame_bytes(size) : size; }
+  // Its type file for a case of `size`: CAN's 1 KiB class has its FD messages in a file of its own.
+  std::string types(int size) const {
+#ifdef POLYPORT_BENCH_CAN
+    if (can && size != 16) return POLYPORT_BENCH_DBC_FD;
+#endif
+    return types_file;
+  }
 };
 
 const std::vector<Model>& all_models() {
   static const std::vector<Model> models{{"cyclonedds", PINGPONG_CYCLONE, POLYPORT_BENCH_IDL, false},
                                          {"fastdds", PINGPONG_FASTDDS, POLYPORT_BENCH_IDL, false},
-                                         {"lcm", PINGPONG_LCM, POLYPORT_BENCH_LCM_TYPES, true}};
+                                         {"lcm", PINGPONG_LCM, POLYPORT_BENCH_LCM_TYPES, true},
+#ifdef POLYPORT_BENCH_CAN
+                                         {"can", PINGPONG_CAN, POLYPORT_BENCH_DBC, false, true},
+#endif
+                                         };
   return models;
 }
 
@@ -105,6 +142,9 @@ const Model& model_named(const std::string& name) {
 // The native relay program of two different models, which both name in its file name.
 std::string relay_program(const Model& a, const Model& b) {
   const auto has = [&](const char* name) { return a.name == name || b.name == name; };
+#ifdef POLYPORT_BENCH_CAN
+  if (has("can")) return has("cyclonedds") ? RELAY_CAN_CYCLONE : has("fastdds") ? RELAY_CAN_FASTDDS : RELAY_CAN_LCM;
+#endif
   if (has("cyclonedds") && has("lcm")) return RELAY_CYCLONE_LCM;
   if (has("fastdds") && has("lcm")) return RELAY_FASTDDS_LCM;
   return RELAY_CYCLONE_FASTDDS;
@@ -115,18 +155,43 @@ struct Settings {
   std::vector<std::string> models{"cyclonedds", "fastdds", "lcm", "inprocess"};
   std::vector<int> sizes{16, 1024};
   bool cross_only = false;
+  bool can_pairs_only = false;  // --pairs can
   int domain_base = 150;
   int port_base = 7800;
   bool host_network = false;
 };
 
-// The five domains (DDS domain ids or LCM ports) of a pair's case.
+// The five domains (DDS domain ids, LCM ports or vcan interface numbers) of a pair's case.
 struct Domains {
-  int dds, lcm;
-  int of(const Model& m, int k) const { return (m.lcm ? lcm : dds) + k; }
+  int dds, lcm, can;
+  int of(const Model& m, int k) const { return (m.can ? can : m.lcm ? lcm : dds) + k; }
 };
 
+// A SocketCAN component on vcanN with ports named as the other models' ("ping": pingpong.dbc's
+// Ping, id 0x100; "pong": Pong, 0x101; in the 1 KiB class pingpong_fd.dbc's, on an FD socket),
+// so that the connections match by port name. The ping side's bus sends Ping and polyport
+// sends it Pong; the pong side's the other way round.
+std::string can_component(const std::string& name, int n, int size, bool ping_side) {
+  const std::string file = size == 16 ? "pingpong::" : "pingpong_fd::";
+  const auto port = [&](const char* port_name, const char* message, bool bus_sends) {
+    return std::string("    <data_port><name>") + port_name + "</name><data_type>" + file + message +
+           "</data_type><usage>" + (bus_sends ? "output" : "input") + "</usage></data_port>\n";
+  };
+  return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<component_profile>\n  <name>" + name +
+         "</name>\n  <model>socketcan</model>\n  <socketcan><interface>vcan" + std::to_string(n) + "</interface>" +
+         (size == 16 ? "" : "<fd>true</fd>") + "</socketcan>\n  <ports>\n" + port("ping", "Ping", ping_side) +
+         port("pong", "Pong", !ping_side) + "  </ports>\n</component_profile>\n";
+}
+
+// CAN <-> another model: pingpong.dbc's one signal seq (a double) <-> seq (unsigned or signed 64):
+// narrowing into the integer (the ping programs' sequence numbers, probes included, stay below
+// 2^53, where a double is exact); pad has no signal, so the other model's pad is zero
+// (by_name="false") and is dropped on the way to CAN.
+constexpr const char* kCanMapping =
+    R"(<mapping by_name="false"><field target="seq" source="seq" allow_narrowing="true"/></mapping>)";
+
 std::string component(const std::string& name, const Model& m, int domain, int size, bool ping_side) {
+  if (m.can) return can_component(name, domain, size, ping_side);
   const std::string section = m.lcm ? "<lcm><url>udpm://" + std::string(kLcmGroup) + ":" + std::to_string(domain) +
                                           "?ttl=0</url></lcm>"
                                     : "<dds><domain>" + std::to_string(domain) + "</domain></dds>";
@@ -136,10 +201,12 @@ std::string component(const std::string& name, const Model& m, int domain, int s
 
 // polyportd's application of a case: A's ping side on `a`, B's pong side on `b`.
 fs::path write_profiles(const fs::path& dir, const Model& from, const Model& to, int size, int a, int b) {
-  std::vector<std::string> files{from.types_file};
-  if (to.types_file != from.types_file) files.push_back(to.types_file);
+  std::vector<std::string> files{from.types(size)};
+  if (to.types(size) != from.types(size)) files.push_back(to.types(size));
   const std::string mapping =
-      from.lcm != to.lcm ? R"(<mapping><field target="seq" source="seq" allow_narrowing="true"/></mapping>)" : "";
+      from.can != to.can ? kCanMapping
+      : from.lcm != to.lcm ? R"(<mapping><field target="seq" source="seq" allow_narrowing="true"/></mapping>)"
+                           : "";
   return bench::write_pingpong_app(dir, "matrix_pingpong", files, component("PingSide", from, a, size, true),
                                    component("PongSide", to, b, size, false), "ping", "pong", mapping);
 }
@@ -150,10 +217,12 @@ bench::CaseCommands cross_commands(const Model& from, const Model& to, const Dom
   const std::string sz = std::to_string(size);
   const auto at = [&](const Model& m, int k) { return std::to_string(d.of(m, k)); };
   bench::CaseCommands commands;
-  commands.via_ping = {from.program, "ping", at(from, 0), sz};
-  commands.via_pong = {to.program, "pong", at(to, 1), sz};
-  commands.relay_ping = {from.program, "ping", at(from, 2), sz};
-  commands.relay_pong = {to.program, "pong", at(to, 3), sz};
+  const std::string from_sz = std::to_string(from.program_size(size));
+  const std::string to_sz = std::to_string(to.program_size(size));
+  commands.via_ping = {from.program, "ping", at(from, 0), from_sz};
+  commands.via_pong = {to.program, "pong", at(to, 1), to_sz};
+  commands.relay_ping = {from.program, "ping", at(from, 2), from_sz};
+  commands.relay_pong = {to.program, "pong", at(to, 3), to_sz};
   commands.relay = {relay_program(from, to), from.name, at(from, 2), at(to, 3), sz};
   return commands;
 }
@@ -167,9 +236,10 @@ Json run_pair(const Settings& s, const Placement& placement, const Model& from, 
          {"to", to.name},
          {"size_bytes", size},
          {"loadavg1_at_start", bench::load_average()}};
+  if (from.can || to.can) c["can_frame_bytes"] = can_frame_bytes(size);
   bench::CaseCommands commands;
   if (same) {
-    commands = bench::five_domain_commands(from.program, d.of(from, 0), size);
+    commands = bench::five_domain_commands(from.program, d.of(from, 0), from.program_size(size));
     commands.app = write_profiles(dir, from, to, size, d.of(from, 1), d.of(to, 2));
     c["domains"] = bench::five_domains_json(d.of(from, 0));
   } else {
@@ -216,7 +286,9 @@ void add_direct_bar(Json& c, const Json& cases) {
   }
   const std::int64_t bound = a.get<std::int64_t>() + b.get<std::int64_t>() + 2000;
   const std::int64_t v50 = t["via_one_way_p50_ns"].get<std::int64_t>();
-  const auto bar_model = [&](const char* key) { return text(key) == "cyclonedds" || text(key) == "lcm"; };
+  const auto bar_model = [&](const char* key) {
+    return text(key) == "cyclonedds" || text(key) == "lcm" || text(key) == "can";
+  };
   t["direct_bar"] = {{"from_direct_one_way_p50_ns", a},
                      {"to_direct_one_way_p50_ns", b},
                      {"bound_ns", bound},
@@ -453,8 +525,9 @@ std::optional<Settings> parse(int argc, char** argv) {
       for (const auto& v : bench::split(argv[++i])) s.sizes.push_back(std::atoi(v.c_str()));
     } else if (arg == "--pairs") {
       const std::string pairs = argv[++i];
-      if (pairs != "all" && pairs != "cross") return std::nullopt;
+      if (pairs != "all" && pairs != "cross" && pairs != "can") return std::nullopt;
       s.cross_only = pairs == "cross";
+      s.can_pairs_only = pairs == "can";
     } else if (arg == "--domain-base") {
       s.domain_base = std::atoi(argv[++i]);
     } else if (arg == "--port-base") {
@@ -465,19 +538,99 @@ std::optional<Settings> parse(int argc, char** argv) {
   }
   const bool sizes_ok = std::all_of(s.sizes.begin(), s.sizes.end(), [](int v) { return v == 16 || v == 1024; });
   const int pairs = static_cast<int>(s.models.size() * s.models.size());
-  if (!s.run.finish() || !sizes_ok || s.models.empty() || !bench::all_known(s.models, {"cyclonedds", "fastdds", "lcm", kInprocess}) ||
+  const bool models_ok = std::all_of(s.models.begin(), s.models.end(), [](const std::string& m) {
+    const auto& all = all_models();
+    return m == kInprocess || std::any_of(all.begin(), all.end(), [&](const Model& known) { return known.name == m; });
+  });
+  if (!s.run.finish() || !sizes_ok || s.models.empty() || !models_ok ||
       s.domain_base < 0 || s.domain_base + 5 * pairs > 232 || s.port_base < 1024 || s.port_base + 5 * pairs > 65535) {
     return std::nullopt;
   }
   return s;
 }
 
-// The pairs polyport speaks but this runner cannot measure on the host, and why.
-Json not_measured() {
-  return Json::array(
-      {{{"pairs", "can <-> cyclonedds, fastdds, lcm"},
-        {"reason", "the host kernel has no CAN; CAN runs only in the vcan guest (scripts/vcan-run), which has no "
-                   "cross-model programs yet. The CAN diagonal is benchmarks/can (bench_pingpong.sh can)"}}});
+
+// The pairs polyport speaks but a run of `s` does not measure, and why: the CAN pairs on the
+// host (and CAN <-> in-process anywhere).
+Json can_not_measured(const Settings& s) {
+  const bool can = std::find(s.models.begin(), s.models.end(), "can") != s.models.end();
+  Json out = Json::array();
+  if (can && std::find(s.models.begin(), s.models.end(), kInprocess) != s.models.end()) {
+    out.push_back({{"pairs", "can <-> inprocess"},
+                   {"reason", "not built: the in-process ping and pong are set against the host models' programs, the "
+                              "CAN pairs run in the vcan guest"}});
+  }
+  if (!can) {
+    out.push_back({{"pairs", "can <-> every model"},
+                   {"reason", "the host kernel has no CAN: the CAN pairs run in the vcan guest (scripts/vcan-run), "
+                              "a run of their own (scripts/bench_matrix.sh --part vcan: bench_matrix --models "
+                              "can,... --pairs can), whose file report.py sets into the same table"}});
+  }
+  return out;
+}
+
+// The CAN pairs keep the network namespace they start in: scripts/vcan-run's guest (or private
+// namespace on a kernel with vcan), where the interfaces are; moving to a new one would leave
+// them behind. That namespace is the run's own, so its loopback gets the LCM group's route
+// here. Elsewhere the caller gives the route and passes --host-network.
+bool vcan_network() {
+  const char* where = std::getenv("VCAN_RUN_IN");
+  if (where == nullptr || (std::string(where) != "uml" && std::string(where) != "netns")) {
+    std::fprintf(stderr,
+                 "the CAN pairs run inside scripts/vcan-run (its guest or private namespace); elsewhere give %s a "
+                 "route on loopback and pass --host-network\n",
+                 kLcmGroup);
+    return false;
+  }
+  const std::string setup =
+      std::string("ip link set lo up && ip link set lo multicast on && ip route replace ") + kLcmGroup + "/32 dev lo";
+  if (std::system(setup.c_str()) != 0) {
+    std::fprintf(stderr, "cannot give loopback a multicast route (%s)\n", setup.c_str());
+    return false;
+  }
+  return true;
+}
+
+// What a run with CAN pairs adds to the settings (over the host run's wording where it differs).
+Json can_settings() {
+  const char* where = std::getenv("VCAN_RUN_IN");
+  const std::string in = where != nullptr ? where : "";
+  return {{"where", in == "uml" ? "the vcan guest: user-mode Linux (scripts/vcan-run), one CPU, where every system "
+                                  "call (each clock read too, ~15 us) is a round trip through the guest kernel "
+                                  "process: all figures are inflated; compare a pair with its relay from this run"
+                                : "scripts/vcan-run (" + in + ")"},
+          {"vcan_run", in},
+          {"network", "the namespace scripts/vcan-run gives (the guest's own), loopback routes the LCM group"},
+          {"can", "pingpong_can (benchmarks/can, raw SocketCAN): in the 16 B class classic frames of 8 data bytes "
+                  "(pingpong.dbc: Ping 0x100, Pong 0x101, one 64-bit signal seq), in the 1 KiB class CAN FD frames "
+                  "of 64 (pingpong_fd.dbc: the same ids, seq, the rest zero); the other model's pad is not carried "
+                  "(dropped on the way to CAN, zero from it), by polyport nor by the relays; sizes_bytes names the "
+                  "class, can_frame_bytes the frame"},
+          {"can_mapping", "CAN <-> other model: seq (a DBC double) <-> seq (64-bit integer) with allow_narrowing, "
+                          "by_name=\"false\" (pad zero); the ping programs' sequence numbers, probes from 2^52 "
+                          "included, are exact in a double"},
+          {"can_native_relay", "relay_can_<sdk> (side_can.hpp: a raw CAN socket; the SDK's generated types)"}};
+}
+
+// Whether the run measures the pair a -> b at `size`: --pairs cross leaves out the diagonal;
+// --pairs can keeps the pairs with CAN on a side and every diagonal (their direct series give
+// the second bar's figures from the same run).
+bool measures(const Settings& s, const std::string& a, const std::string& b) {
+  const bool can = a == "can" || b == "can";
+  if (can && (a == kInprocess || b == kInprocess)) return false;  // see can_not_measured()
+  if (s.cross_only && a == b) return false;
+  return !(s.can_pairs_only && !can && a != b);
+}
+
+// The vcan interfaces a run uses: five per pair with CAN on a side (vcan0 up).
+int can_interfaces(const Settings& s) {
+  int n = 0;
+  for (const std::string& a : s.models) {
+    for (const std::string& b : s.models) {
+      if ((a == "can" || b == "can") && measures(s, a, b)) n += 5;
+    }
+  }
+  return n;
 }
 
 }  // namespace
@@ -487,13 +640,27 @@ int main(int argc, char** argv) {
   if (!parsed) {
     std::fprintf(stderr,
                  "usage: %s OUTPUT.json [ROUNDS [WARMUP]] [--chunks N] [--placements unpinned,one-core] [--cpu N]\n"
-                 "       [--models cyclonedds,fastdds,lcm,inprocess] [--sizes 16,1024] [--pairs all|cross] [--domain-base N]\n"
-                 "       [--port-base N] [--host-network] [--keep DIR]\n",
+                 "       [--models cyclonedds,fastdds,lcm,inprocess,can] [--sizes 16,1024] [--pairs all|cross|can]\n"
+                 "       [--domain-base N] [--port-base N] [--host-network] [--keep DIR]\n",
                  argv[0]);
     return 2;
   }
   const Settings& s = *parsed;
-  if (!s.host_network && !bench::private_network(std::string(kLcmGroup) + "/32")) return 1;
+  const int interfaces = can_interfaces(s);
+  if (interfaces > 0 && if_nametoindex(("vcan" + std::to_string(interfaces - 1)).c_str()) == 0) {
+    std::fprintf(stderr, "vcan%d does not exist: the CAN pairs run through scripts/vcan-run --interfaces %d\n",
+                 interfaces - 1, interfaces);
+    return 1;
+  }
+  if (interfaces > 0 && std::find(s.sizes.begin(), s.sizes.end(), 1024) != s.sizes.end() &&
+      bench::read_file("/sys/class/net/vcan0/mtu").rfind("72", 0) != 0) {
+    std::fprintf(stderr, "the CAN pairs of 1 KiB send CAN FD frames: run through scripts/vcan-run --fd\n");
+    return 1;
+  }
+  if (!s.host_network &&
+      !(interfaces > 0 ? vcan_network() : bench::private_network(std::string(kLcmGroup) + "/32"))) {
+    return 1;
+  }
   bench::forward_stop_signals();
   setenv("CYCLONEDDS_URI", "file://" POLYPORT_SOURCE_DIR "/config/cyclonedds-loopback.xml", 1);
   setenv("FASTRTPS_DEFAULT_PROFILES_FILE", POLYPORT_SOURCE_DIR "/config/fastdds-loopback.xml", 1);
@@ -505,7 +672,7 @@ int main(int argc, char** argv) {
   settings.update(
       {{"sizes_bytes", s.sizes},
        {"models", s.models},
-       {"pairs", s.cross_only ? "cross" : "all"},
+       {"pairs", s.cross_only ? "cross" : s.can_pairs_only ? "can" : "all"},
        {"ping_pong_programs", "the same-model benchmarks' (benchmarks/dds, benchmarks/lcm): ping of the row's model, "
                               "pong of the column's"},
        {"native_relay", "diagonal: the SDK's own relay program; cross: relay_<sdk>_<sdk> (both SDKs, their generated "
@@ -514,23 +681,26 @@ int main(int argc, char** argv) {
        {"network", s.host_network ? "the host's" : "a private namespace, loopback routes the LCM group"},
        {"cpu_per_message", "the bridging process's CPU per round trip / 2 (each round trip passes it twice)"},
        {"bars", "via one-way p50 <= relay one-way p50 + 2 us (every pair, same case); via one-way p50 <= "
-                "direct(A) + direct(B) + 2 us (2 x direct on the diagonal) for pairs of Cyclone DDS and LCM, "
+                "direct(A) + direct(B) + 2 us (2 x direct on the diagonal) for pairs of Cyclone DDS, LCM and CAN, "
                 "reported for Fast DDS; X -> inprocess and inprocess -> X: via one-way p50 <= direct(X) + 2 us (same "
                 "case); inprocess -> inprocess: none (polyport's own figure)"}});
+  if (interfaces > 0) settings.update(can_settings());
   result["settings"] = settings;
-  result["not_measured"] = not_measured();
+  result["not_measured"] = can_not_measured(s);
   result["cases"] = Json::array();
 
   bool all_ok = true;
   for (const std::string& placement_name : s.run.placements) {
     const Placement placement = s.run.placement(placement_name);
     int pair = 0;
+    int can_pair = 0;
     for (const std::string& a : s.models) {
       for (const std::string& b : s.models) {
-        const Domains d{s.domain_base + 5 * pair, s.port_base + 5 * pair};
+        const bool can = (a == "can" || b == "can") && measures(s, a, b);
+        const Domains d{s.domain_base + 5 * pair, s.port_base + 5 * pair, can ? 5 * can_pair++ : 0};
         ++pair;
-        if (s.cross_only && a == b) continue;
         for (const int size : s.sizes) {
+          if (!measures(s, a, b)) continue;
           if (bench::interrupted()) break;
           std::fprintf(stderr, "%s %s -> %s %d B ...\n", placement.name.c_str(), a.c_str(), b.c_str(), size);
           const std::string name = placement.name + "-" + a + "-" + b + "-" + std::to_string(size);
