@@ -37,7 +37,9 @@
 
 namespace polyport {
 
-inline constexpr int kComponentApiVersion = 2;
+// Raised whenever what a plugin compiles in changes layout (ComponentBase, PortDeclaration, the
+// port templates): the loader then refuses a plugin built against other headers.
+inline constexpr int kComponentApiVersion = 3;
 
 class ExecutionContext;
 
