@@ -261,10 +261,13 @@ TEST_F(CallbackInPortEngine, BindsThePortInPushModeAndTheComponentAnswersFromThe
   engine.stats(stats);
   const nlohmann::json& in = *connection_named(stats, "ticker.count -> echo.in");
   const nlohmann::json& out = *connection_named(stats, "echo.out -> collector.in");
+  const nlohmann::json& meta_ok = *connection_named(stats, "echo.meta_ok -> checks.in");
   EXPECT_EQ(in["mode"], "push");
   // Every sample Echo took went out again, from the callback. (Samples written while Echo was
   // not active yet or any more were refused: counted as sink errors, not delivered.)
   EXPECT_EQ(out["received"], in["delivered"]) << stats.dump(2);
+  // And each came with its size and time of entry in its meta.
+  EXPECT_EQ(meta_ok["received"], in["delivered"]) << stats.dump(2);
   EXPECT_EQ(in["received"].get<std::uint64_t>(),
             in["delivered"].get<std::uint64_t>() + in["dropped_by_reason"]["sink_error"].get<std::uint64_t>());
 }
