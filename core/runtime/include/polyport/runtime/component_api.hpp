@@ -268,7 +268,10 @@ class InPort {
 //    onExecute or from another thread at the same time;
 //  - a write that comes back into this port on the same thread (an in-process loop) calls
 //    on_data again, nested: a component that answers what answers it must unwind itself (a
-//    trampoline: note the work, return, and let the outermost call do it);
+//    trampoline: note the work, return, and let the outermost call do it). A connection with
+//    a watchdog or a rate limit hands over one sample at a time (its writer may wait for the
+//    timer thread's safe value to pass through on_data) and refuses one that comes back
+//    through it (a sink error);
 //  - it must not throw (an exception is caught and counted as the sample's sink error).
 // Samples are handed over only while the component is active: from the moment onActivated
 // has succeeded until deactivation begins (or onExecute fails); others are refused
