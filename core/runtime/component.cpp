@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <cstdlib>
+#include <thread>
 #include <utility>
 
 #include "polyport/runtime/component_api.hpp"
@@ -25,6 +27,20 @@ Port* Component::find_port(std::string_view port_name) const noexcept {
 }
 
 ComponentBase::~ComponentBase() = default;
+
+void ComponentBase::close_callbacks() noexcept {
+  callbacks_open_.store(false, std::memory_order_seq_cst);
+  // A handler that entered before the store is still counted: its writer's thread finishes
+  // it. Past a few yields, sleep: a real-time context's yield would not let a writer of lower
+  // priority on the same CPU run.
+  for (int spins = 0; callbacks_running_.load(std::memory_order_seq_cst) != 0; ++spins) {
+    if (spins < 100) {
+      std::this_thread::yield();
+    } else {
+      std::this_thread::sleep_for(std::chrono::microseconds(100));
+    }
+  }
+}
 
 std::string_view to_string(ReturnCode code) noexcept {
   switch (code) {

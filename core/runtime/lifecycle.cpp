@@ -120,6 +120,7 @@ ReturnCode Lifecycle::apply(LifecycleCommand command) noexcept {
       const ReturnCode code = guarded([&] { return c.onActivated(); });
       if (code == ReturnCode::ok) {
         set(LifecycleState::active);
+        c.open_callbacks();
       } else {
         errors_.fetch_add(1, std::memory_order_relaxed);
         set(LifecycleState::error);
@@ -128,6 +129,7 @@ ReturnCode Lifecycle::apply(LifecycleCommand command) noexcept {
     }
     case LifecycleCommand::deactivate: {
       if (now != LifecycleState::active) return ReturnCode::precondition_not_met;
+      c.close_callbacks();  // no CallbackInPort handler runs on while the component stops
       const ReturnCode code = guarded([&] { return c.onDeactivated(); });
       set(LifecycleState::inactive);  // a failing stop hook still stops the component
       return code;
@@ -147,6 +149,7 @@ ReturnCode Lifecycle::apply(LifecycleCommand command) noexcept {
       code = guarded([&] { return c.onActivated(); });
       if (code != ReturnCode::ok) errors_.fetch_add(1, std::memory_order_relaxed);
       set(code == ReturnCode::ok ? LifecycleState::active : LifecycleState::error);
+      if (code == ReturnCode::ok) c.open_callbacks();
       return code;
     }
     case LifecycleCommand::finalize: {
@@ -166,6 +169,7 @@ void Lifecycle::execute() noexcept {
     const ReturnCode code = guarded([&] { return component_.onExecute(); });
     if (code != ReturnCode::ok) {
       errors_.fetch_add(1, std::memory_order_relaxed);
+      component_.close_callbacks();
       set(LifecycleState::error);
       return;
     }
@@ -173,6 +177,7 @@ void Lifecycle::execute() noexcept {
       component_.onStateUpdate();
     } catch (...) {
       errors_.fetch_add(1, std::memory_order_relaxed);
+      component_.close_callbacks();
       set(LifecycleState::error);
     }
   } else if (now == LifecycleState::error) {

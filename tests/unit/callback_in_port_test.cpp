@@ -4,6 +4,8 @@
 // from profiles (tests/data/engine/Echo.xml, the Echo class of the test plugin).
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <thread>
@@ -30,16 +32,32 @@ class Listener final : public ComponentBase {
  public:
   void on_sample(const Sample& sample, const SampleMeta& meta) {
     if (sample.seq < 0) throw std::runtime_error("refused");
+    running = true;
+    if (during) during();
     last = sample;
     last_meta = meta;
     thread = std::this_thread::get_id();
     ++count;
+    running = false;
+  }
+  ReturnCode onExecute() override { return fail_execute ? ReturnCode::error : ReturnCode::ok; }
+  ReturnCode onDeactivated() override {
+    overlapped = running.load();
+    deactivated = true;
+    if (while_deactivating) while_deactivating();
+    return ReturnCode::ok;
   }
   CallbackInPort<Sample> in{*this, "in", &Listener::on_sample};
   Sample last{};
   SampleMeta last_meta{};
   std::thread::id thread;
   int count = 0;
+  std::function<void()> during;              // inside the handler
+  std::function<void()> while_deactivating;  // inside onDeactivated
+  std::atomic<bool> running{false};
+  std::atomic<bool> deactivated{false};
+  bool overlapped = false;  // a handler was running when onDeactivated began
+  bool fail_execute = false;
 };
 
 // The listener's port bound as the in-process adaptor binds it (push mode when the declaration
@@ -129,6 +147,62 @@ TEST(CallbackInPort, RefusesSamplesWhileTheComponentIsNotActive) {
   EXPECT_EQ(bound.refused(), 3u);
 }
 
+// A handler under way on a writer's thread when the deactivation begins ends before
+// onDeactivated does: the handler holds on until onDeactivated has run (it never should while
+// the handler runs) or a deadline has passed.
+TEST(CallbackInPort, HandlerUnderWayEndsBeforeOnDeactivatedBegins) {
+  Bound bound;
+  ASSERT_EQ(bound.lifecycle.apply(LifecycleCommand::initialize), ReturnCode::ok);
+  ASSERT_EQ(bound.lifecycle.apply(LifecycleCommand::activate), ReturnCode::ok);
+  std::atomic<bool> in_handler{false};
+  std::atomic<bool> deactivating{false};
+  bound.listener.during = [&] {
+    in_handler = true;
+    while (!deactivating) std::this_thread::yield();
+    (void)eventually([&] { return bound.listener.deactivated.load(); }, std::chrono::milliseconds(300));
+  };
+  std::thread writer([&] { bound.write(1); });
+  const bool entered = eventually([&] { return in_handler.load(); });
+  deactivating = true;
+  const ReturnCode deactivated = bound.lifecycle.apply(LifecycleCommand::deactivate);
+  writer.join();
+  ASSERT_TRUE(entered);
+  EXPECT_EQ(deactivated, ReturnCode::ok);
+  EXPECT_FALSE(bound.listener.overlapped) << "onDeactivated began while the handler was running";
+  EXPECT_EQ(bound.listener.count, 1);
+}
+
+// onDeactivated may still write what loops back into the port: refused, as once it returned.
+TEST(CallbackInPort, SampleWrittenWhileOnDeactivatedRunsIsRefused) {
+  Bound bound;
+  ASSERT_EQ(bound.lifecycle.apply(LifecycleCommand::initialize), ReturnCode::ok);
+  ASSERT_EQ(bound.lifecycle.apply(LifecycleCommand::activate), ReturnCode::ok);
+  bound.write(1);
+  bound.listener.while_deactivating = [&] { bound.write(2); };
+  ASSERT_EQ(bound.lifecycle.apply(LifecycleCommand::deactivate), ReturnCode::ok);
+  EXPECT_EQ(bound.listener.count, 1);
+  EXPECT_EQ(bound.listener.last.seq, 1);
+  EXPECT_EQ(bound.refused(), 1u);
+}
+
+// A failed onExecute stops the handing over; recover starts it again.
+TEST(CallbackInPort, ErrorStopsTheSamplesAndRecoverResumesThem) {
+  Bound bound;
+  ASSERT_EQ(bound.lifecycle.apply(LifecycleCommand::initialize), ReturnCode::ok);
+  ASSERT_EQ(bound.lifecycle.apply(LifecycleCommand::activate), ReturnCode::ok);
+  bound.listener.fail_execute = true;
+  bound.lifecycle.execute();
+  ASSERT_EQ(bound.lifecycle.state(), LifecycleState::error);
+  bound.write(1);
+  EXPECT_EQ(bound.listener.count, 0);
+  EXPECT_EQ(bound.refused(), 1u);
+  bound.listener.fail_execute = false;
+  ASSERT_EQ(bound.lifecycle.apply(LifecycleCommand::recover), ReturnCode::ok);
+  bound.write(2);
+  EXPECT_EQ(bound.listener.count, 1);
+  EXPECT_EQ(bound.listener.last.seq, 2);
+}
+
 TEST(CallbackInPort, ShortSampleAndThrowingHandlerAreSinkErrors) {
   Bound bound;
   ASSERT_EQ(bound.lifecycle.apply(LifecycleCommand::initialize), ReturnCode::ok);
@@ -187,10 +261,13 @@ TEST_F(CallbackInPortEngine, BindsThePortInPushModeAndTheComponentAnswersFromThe
   engine.stats(stats);
   const nlohmann::json& in = *connection_named(stats, "ticker.count -> echo.in");
   const nlohmann::json& out = *connection_named(stats, "echo.out -> collector.in");
+  const nlohmann::json& meta_ok = *connection_named(stats, "echo.meta_ok -> checks.in");
   EXPECT_EQ(in["mode"], "push");
   // Every sample Echo took went out again, from the callback. (Samples written while Echo was
   // not active yet or any more were refused: counted as sink errors, not delivered.)
   EXPECT_EQ(out["received"], in["delivered"]) << stats.dump(2);
+  // And each came with its size and time of entry in its meta.
+  EXPECT_EQ(meta_ok["received"], in["delivered"]) << stats.dump(2);
   EXPECT_EQ(in["received"].get<std::uint64_t>(),
             in["delivered"].get<std::uint64_t>() + in["dropped_by_reason"]["sink_error"].get<std::uint64_t>());
 }

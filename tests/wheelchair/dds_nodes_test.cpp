@@ -448,5 +448,28 @@ TEST_F(WheelchairDdsNodes, HwWithoutItsInterfaceSaysWhy) {
   EXPECT_EQ(errors.find("running"), std::string::npos) << errors;
 }
 
+// The Fast DDS HW program (wheelchair_fastdds_hw) shares the nodes' command line and CAN side
+// (node_common.hpp): the same refusals, in its own name.
+TEST_F(WheelchairDdsNodes, FastddsHwRefusesABadCommandLineAndSaysWhyWithoutItsInterface) {
+#ifndef WHEELCHAIR_FASTDDS_HW
+  GTEST_SKIP() << "wheelchair_fastdds_hw is not built (no Fast DDS packages or fastddsgen)";
+#else
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"--period-ms", "0"}, std::vector<std::string>{"--domain", "233"},
+        std::vector<std::string>{"--role", "hw"}}) {
+    auto child = peer(WHEELCHAIR_FASTDDS_HW, "bad", args);
+    EXPECT_EQ(child->wait(10s), 2) << "arguments: " << Json(args).dump() << "\n" << child->errors();
+    EXPECT_FALSE(child->errors().empty()) << Json(args).dump();
+  }
+  auto child = peer(WHEELCHAIR_FASTDDS_HW, "hw", {"--if", "nosuchcan9", "--domain", std::to_string(kDomain)});
+  EXPECT_EQ(child->wait(10s), 1) << child->errors();
+  const std::string errors = child->errors();
+  EXPECT_TRUE(errors.find("wheelchair_fastdds_hw: cannot open a raw CAN socket") != std::string::npos ||
+              errors.find("wheelchair_fastdds_hw: no network interface 'nosuchcan9'") != std::string::npos)
+      << errors;
+  EXPECT_EQ(errors.find("running"), std::string::npos) << errors;
+#endif
+}
+
 }  // namespace
 }  // namespace polyport::test

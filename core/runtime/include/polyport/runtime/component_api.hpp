@@ -37,7 +37,9 @@
 
 namespace polyport {
 
-inline constexpr int kComponentApiVersion = 2;
+// Raised whenever what a plugin compiles in changes layout (ComponentBase, PortDeclaration, the
+// port templates): the loader then refuses a plugin built against other headers.
+inline constexpr int kComponentApiVersion = 3;
 
 class ExecutionContext;
 
@@ -109,7 +111,7 @@ class ComponentBase {
 
   const std::string& instance_name() const noexcept { return instance_name_; }
   // The component's lifecycle state as the engine drives it (created until a Lifecycle is
-  // attached). Any thread; what CallbackInPort checks before each sample.
+  // attached). Any thread.
   LifecycleState state() const noexcept {
     const Lifecycle* lifecycle = lifecycle_.load(std::memory_order_acquire);
     return lifecycle ? lifecycle->state() : LifecycleState::created;
@@ -172,6 +174,21 @@ class ComponentBase {
   ExecutionContext* execution_context() const noexcept { return context_; }
   // The Lifecycle that drives this component (its constructor and destructor call this).
   void attach_lifecycle(const Lifecycle* lifecycle) noexcept { lifecycle_.store(lifecycle, std::memory_order_release); }
+  // CallbackInPort's gate, which the Lifecycle drives: a sample reaches a handler only while
+  // it is open, from the moment onActivated has succeeded until the component leaves active
+  // (deactivated, or its onExecute failed). enter / leave: any thread, no lock (a handler
+  // runs between them). close_callbacks waits for the handlers already running, so that none
+  // is left when onDeactivated, onReset or onFinalize begins; never call it from one of this
+  // component's handlers.
+  bool enter_callback() noexcept {
+    callbacks_running_.fetch_add(1, std::memory_order_seq_cst);
+    if (callbacks_open_.load(std::memory_order_seq_cst)) return true;
+    leave_callback();
+    return false;
+  }
+  void leave_callback() noexcept { callbacks_running_.fetch_sub(1, std::memory_order_release); }
+  void open_callbacks() noexcept { callbacks_open_.store(true, std::memory_order_seq_cst); }
+  void close_callbacks() noexcept;
 
  private:
   std::deque<PortDeclaration> declarations_;  // a deque: declarations keep their address
@@ -181,6 +198,8 @@ class ComponentBase {
   std::atomic<bool> blocking_{true};
   ExecutionContext* context_ = nullptr;
   std::atomic<const Lifecycle*> lifecycle_{nullptr};
+  std::atomic<bool> callbacks_open_{false};
+  std::atomic<std::uint32_t> callbacks_running_{0};
   Port* notifications_ = nullptr;
   bool auto_notifications_ = false;
   std::atomic<std::uint64_t> notification_sequence_{0};
@@ -249,12 +268,17 @@ class InPort {
 //    onExecute or from another thread at the same time;
 //  - a write that comes back into this port on the same thread (an in-process loop) calls
 //    on_data again, nested: a component that answers what answers it must unwind itself (a
-//    trampoline: note the work, return, and let the outermost call do it);
+//    trampoline: note the work, return, and let the outermost call do it). A connection with
+//    a watchdog or a rate limit hands over one sample at a time (its writer may wait for the
+//    timer thread's safe value to pass through on_data) and refuses one that comes back
+//    through it (a sink error);
 //  - it must not throw (an exception is caught and counted as the sample's sink error).
-// Samples are handed over only while the component is active (between onActivated and
-// onDeactivated); others are refused (not_active, counted by the connection as sink errors),
-// so on_data never runs before onActivated has set the component up. One that began just
-// before a deactivation may still be running while onDeactivated starts.
+// Samples are handed over only while the component is active: from the moment onActivated
+// has succeeded until deactivation begins (or onExecute fails); others are refused
+// (not_active, counted by the connection as sink errors). When the component leaves active
+// the engine waits for the calls under way (before onDeactivated; as soon as onExecute has
+// failed), so on_data never runs before onActivated has set the component up, nor while
+// onDeactivated, onError, onReset or onFinalize runs.
 // The profile declares the port as any data input port (its policy and depth do not apply).
 template <class T>
 class CallbackInPort final : private SampleSink {
@@ -279,15 +303,17 @@ class CallbackInPort final : private SampleSink {
 
   Status on_sample(const std::byte* data, const SampleMeta& meta) noexcept override {
     if (meta.size < sizeof(T)) return Status::bad_size;
-    if (owner_.state() != LifecycleState::active) return Status::not_active;
+    if (!owner_.enter_callback()) return Status::not_active;
     T sample;  // aligned for T, whatever the wire left the bytes at
     std::memcpy(&sample, data, sizeof(T));
+    Status status = Status::ok;
     try {
       (owner_.*on_data_)(static_cast<const T&>(sample), meta);
     } catch (...) {
-      return Status::error;
+      status = Status::error;
     }
-    return Status::ok;
+    owner_.leave_callback();
+    return status;
   }
 
   ComponentBase& owner_;
