@@ -136,7 +136,11 @@ class PingComp final : public polyport::ComponentBase {
       ping.seq = expected_.load(std::memory_order_acquire);
       sent_at_.store(bench::now_ns(), std::memory_order_release);
       sent_seq_.store(ping.seq, std::memory_order_release);
+      // Senders in flight: 1 unless a send nests inside a write or runs beside another one.
+      const int depth = send_depth_.fetch_add(1, std::memory_order_acq_rel) + 1;
+      if (depth > max_send_depth_.load(std::memory_order_relaxed)) max_send_depth_.store(depth, std::memory_order_relaxed);
       ping_.write(ping);  // an in-process pong's answer comes back inside this call
+      send_depth_.fetch_sub(1, std::memory_order_acq_rel);
     });
   }
   void write_report() {
@@ -148,10 +152,10 @@ class PingComp final : public polyport::ComponentBase {
     for (const std::int64_t r : rtt) one_way.push_back(r / 2);
     if (std::FILE* out = std::fopen(report_.c_str(), "w")) {
       std::fprintf(out, R"({"vendor":"inprocess","size":%zu,"warmup":%lld,"lost":%d,"rtt_ns":%s,"one_way_ns":%s,)"
-                        R"("cpu_ns":%s})"
+                        R"("cpu_ns":%s,"max_send_depth":%d})"
                         "\n",
                    sizeof(Sample), static_cast<long long>(warmup_), lost_, bench::summary(rtt).c_str(),
-                   bench::summary(one_way).c_str(), cpu_.json().c_str());
+                   bench::summary(one_way).c_str(), cpu_.json().c_str(), max_send_depth_.load());
       std::fclose(out);
     }
     if (!samples_.empty()) bench::write_samples(samples_.c_str(), rtt, std::vector<std::int64_t>(rtt.size(), 0));
@@ -167,6 +171,7 @@ class PingComp final : public polyport::ComponentBase {
   std::atomic<std::uint64_t> sent_seq_{~0ull};
   std::atomic<std::int64_t> sent_at_{0};
   polyport::DrainGate sends_;                 // one sender at a time, never nested
+  std::atomic<int> send_depth_{0}, max_send_depth_{0};  // sends in flight (reported: the gate's proof)
   std::atomic<bool> finished_{false};
   int lost_ = 0;                              // the context's thread only
   bool started_ = false, reported_ = false;   // the context's thread only

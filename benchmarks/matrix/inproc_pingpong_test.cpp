@@ -99,6 +99,8 @@ class InprocPongTest : public DaemonTest {
     EXPECT_EQ(j["lost"], 0) << j.dump();
     EXPECT_EQ(j["rtt_ns"]["n"], rounds) << j.dump();
     EXPECT_LE(j["rtt_ns"]["min"].get<std::int64_t>(), j["rtt_ns"]["max"].get<std::int64_t>()) << j.dump();
+    // One ping write at a time, never one inside another (a pong answered inside the write).
+    EXPECT_EQ(j["max_send_depth"], 1) << j.dump();
   }
 
   void answers_the_lcm_ping(int size) {
@@ -145,7 +147,8 @@ TEST_F(InprocPongTest, InprocessPingGetsItsPongsFromTheLcmPongProgram) {
 }
 
 // The pong answers inside the ping's write, on the ping's thread: the ping's trampoline sends
-// each next ping after that write has returned, so 1000 round trips do not nest 1000 deep.
+// each next ping after that write has returned, so 1000 round trips do not nest 1000 deep
+// (the report's max_send_depth stays 1).
 TEST_F(InprocPongTest, InprocessPingGetsItsPongsFromTheInprocessPongInTheSameDaemon) {
   constexpr int kRounds = 1000;
   write_inproc_ping(1024, kRounds, 10);
