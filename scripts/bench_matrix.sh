@@ -12,12 +12,13 @@
 #         series), via polyportd and via a native relay, and the in-process pairs (against
 #         direct), 16 B and 1 KiB, in a private network namespace (needs root), as the LCM
 #         benchmark does;
-#   vcan  CAN -> each model and each model -> CAN, and the CAN diagonal, classic 8-byte frames
-#         (the 16 B column's analog) and CAN FD 64-byte frames (the 1 KiB column's), with every
-#         model's diagonal for the direct figures of the second bar, inside scripts/vcan-run
-#         (the user-mode Linux guest on a host without vcan: one CPU, every figure inflated, so
-#         a CAN pair is compared with its relay and the guest's direct figures from the same
-#         run). CAN <-> in-process is listed as not measured (README.md, "Benchmarks").
+#   vcan  CAN -> each model and each model -> CAN (in-process included: an in-process pong
+#         or ping in polyportd against pingpong_can, beside CAN's direct series), and the CAN
+#         diagonal, classic 8-byte frames (the 16 B column's analog) and CAN FD 64-byte frames
+#         (the 1 KiB column's), with every program model's diagonal for the direct figures of
+#         the second bar, inside scripts/vcan-run (the user-mode Linux guest on a host without
+#         vcan: one CPU, every figure inflated, so a CAN pair is compared with its relay and
+#         the guest's direct figures from the same run).
 #
 #   scripts/bench_matrix.sh [--part host|vcan|both] [runner options]
 #     --part   which part to run (default both); the report covers what ran
@@ -77,14 +78,14 @@ fi
 if [ "$part" != host ]; then
   out="$stem-vcan.json"
   [ "$part" = vcan ] && out="$stem.json"
-  # Five interfaces per CAN pair: CAN -> each of the three models, each -> CAN, and CAN -> CAN.
+  # Five interfaces per CAN pair: CAN -> each of the four other models, each -> CAN, and CAN -> CAN.
   # DDS domains from 100: 16 pairs of five (the host part's 185 leaves room for 9).
   POLYPORT_BENCH_OUTER_HOST="$(nproc) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(uname -sr), loadavg $(cut -d' ' -f1-3 /proc/loadavg)"
   export POLYPORT_BENCH_OUTER_HOST
   echo "== running the matrix's CAN pairs in the vcan guest ($rounds round trips per series in $chunks chunks)" >&2
   # --fd: the FD MTU on every interface (classic frames pass there too, as on an FD bus).
-  bench_run scripts/vcan-run --interfaces 35 --fd --timeout 7200 -- "$build/bin/bench_matrix" "$out" "$rounds" \
-    "$warmup" --chunks "$chunks" --models can,cyclonedds,fastdds,lcm --pairs can --placements unpinned \
+  bench_run scripts/vcan-run --interfaces 45 --fd --timeout 7200 -- "$build/bin/bench_matrix" "$out" "$rounds" \
+    "$warmup" --chunks "$chunks" --models can,cyclonedds,fastdds,lcm,inprocess --pairs can --placements unpinned \
     --domain-base 100 "$@"
   [ "$bench_rc" -eq 0 ] || rc=$bench_rc
   if [ -f "$out" ]; then

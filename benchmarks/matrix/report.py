@@ -197,8 +197,8 @@ def mark(q):
 
 
 GUEST = "matrix, vcan guest"
-CAN_INPROCESS = ("the in-process ping and pong run against the host models' programs, the CAN pairs "
-                 "in the vcan guest")
+CAN_INPROCESS = ("not in these runs (the vcan part measures them when its --models names inprocess, as "
+                 "scripts/bench_matrix.sh does)")
 
 
 def cell_text(pair):
@@ -262,9 +262,9 @@ def markdown(matrix, runs, pairs, missing, json_name):
                         row.append("%s (ping and pong in one polyportd)" % us(q["via_polyport_one_way_ns"]["p50"]))
                         continue
                     if "inprocess" in (a, b):
-                        row.append("%s [%s] %s" % (us(q["via_polyport_one_way_ns"]["p50"]),
-                                                   us((q["direct_one_way_ns"] or {}).get("p50")),
-                                                   verdict(bars["via_within_direct_bound"])))
+                        row.append("%s [%s] %s%s" % (us(q["via_polyport_one_way_ns"]["p50"]),
+                                                     us((q["direct_one_way_ns"] or {}).get("p50")),
+                                                     verdict(bars["via_within_direct_bound"]), mark(q)))
                         continue
                     row.append("%s (%s) %s%s" % (us(q["via_polyport_one_way_ns"]["p50"]),
                                                  us(q["via_native_relay_one_way_ns"]["p50"]),

@@ -50,7 +50,9 @@
 // the integer, pad zero: no signal carries it). The native relays are relay_can_<sdk>
 // (side_can.hpp: a raw CAN socket; pad not carried either). Each CAN pair takes five
 // interfaces (vcanN.., a domain's N), so --pairs can with all four models needs
-// --interfaces 35.
+// --interfaces 35, and 45 with inprocess too. CAN <-> inprocess: the in-process ping or pong's
+// ports take the IDL type (bench::Ping16 / Ping1k, the flat layout inproc_pingpong.cpp reads),
+// joined to the CAN side's messages with kCanMapping, against pingpong_can's direct series.
 //
 //   bench_matrix OUTPUT.json [ROUNDS [WARMUP]] [options]      (scripts/bench_matrix.sh)
 //     --chunks N, --placements LIST, --cpu N, --keep DIR   as the same-model runners
@@ -60,8 +62,9 @@
 //                        see above)
 //     --sizes LIST       16,1024 (default: both)
 //     --pairs all|cross|can  cross: leave out the diagonal; can: the pairs with CAN on a side
-//                        and every diagonal (the direct figures of the second bar, from the
-//                        same run: the vcan guest's figures are its own) (default: all)
+//                        and every diagonal but the in-process one (the direct figures of the
+//                        second bar, from the same run: the vcan guest's figures are its own)
+//                        (default: all)
 //     --domain-base N    first DDS domain; each pair takes 5 (default 150)
 //     --port-base N      first LCM port; each pair takes 5 (default 7800)
 //     --host-network     as bench_lcm_pingpong: use the host's network (239.255.76.67 must
@@ -299,6 +302,20 @@ void add_direct_bar(Json& c, const Json& cases) {
 
 constexpr const char* kInprocess = "inprocess";
 
+// The model whose type the in-process ping or pong takes on its ports when it talks to `x`:
+// x's own, so that nothing maps, except CAN's, whose messages carry doubles (a DBC signal) where
+// the in-process layout has a 64-bit integer and padding: there the IDL type, with kCanMapping.
+const Model& inproc_side(const Model& x) { return x.can ? model_named("cyclonedds") : x; }
+
+// The types files and the mapping of an application joining `x`'s component to an in-process
+// one that takes inproc_side(x)'s type.
+std::vector<std::string> inproc_types(const Model& x, int size) {
+  std::vector<std::string> files{x.types(size)};
+  if (inproc_side(x).types(size) != x.types(size)) files.push_back(inproc_side(x).types(size));
+  return files;
+}
+std::string inproc_mapping(const Model& x) { return x.can ? kCanMapping : ""; }
+
 // The in-process pong's component profile, its ports of `side`'s type (so that polyport
 // converts between side's wire format and the flat sample, and nothing maps).
 std::string inproc_pong_component(const Model& side, int size) {
@@ -331,11 +348,13 @@ Json run_into_inprocess(const Settings& s, const Placement& placement, const Mod
                       from.name + "'s receive thread in polyportd"},
          {"native_relay", "none: an in-process component lives inside the bridge; the comparison is direct " +
                               from.name + " <-> " + from.name + " (its own ping and pong programs), in this run"}};
-  const std::string sz = std::to_string(size);
+  if (from.can) c["can_frame_bytes"] = can_frame_bytes(size);
+  const std::string sz = std::to_string(from.program_size(size));
   const auto at = [&](int k) { return std::to_string(d.of(from, k)); };
-  const fs::path app = bench::write_pingpong_app(dir, "matrix_inprocess", from.types_file,
+  const fs::path app = bench::write_pingpong_app(dir, "matrix_inprocess", inproc_types(from, size),
                                                  component("PingSide", from, d.of(from, 1), size, true),
-                                                 inproc_pong_component(from, size), "ping", "pong");
+                                                 inproc_pong_component(inproc_side(from), size), "ping", "pong",
+                                                 inproc_mapping(from));
   const fs::path stats_file = dir / "polyport-stats.json";
   const pid_t direct_pong = bench::spawn({from.program, "pong", at(0), sz}, dir / "pong-direct.out", placement);
   const pid_t daemon = bench::spawn({POLYPORTD, "run", app.string(), "-q", "--stats-json", stats_file.string()},
@@ -433,7 +452,7 @@ int run_inproc_ping(const fs::path& app, const fs::path& dir, const Placement& p
 Json run_from_inprocess(const Settings& s, const Placement& placement, const Model* to, int size, const Domains& d,
                         const fs::path& dir) {
   fs::create_directories(dir);
-  const Model& side = to ? *to : model_named("cyclonedds");  // the diagonal's ports: the IDL type
+  const Model& side = to ? inproc_side(*to) : model_named("cyclonedds");  // the diagonal's ports: the IDL type
   const bench::Chunking& chunking = s.run.chunking;
   const bench::Chunking one_chunk{chunking.per_chunk(), chunking.warmup, 1};
   Json c{{"placement", placement.name},
@@ -445,8 +464,9 @@ Json run_from_inprocess(const Settings& s, const Placement& placement, const Mod
                       " (benchmarks/matrix/inproc_pingpong.cpp), one polyportd run per chunk"},
          {"native_relay", "none: an in-process component lives inside the bridge"},
          {"polyport_figures", "the last chunk's polyportd"}};
-  const std::string sz = std::to_string(size);
-  const auto at = [&](int k) { return std::to_string(d.of(side, k)); };
+  const std::string sz = std::to_string(to ? to->program_size(size) : size);
+  const auto at = [&](int k) { return std::to_string(to ? d.of(*to, k) : d.of(side, k)); };
+  if (to && to->can) c["can_frame_bytes"] = can_frame_bytes(size);
   if (to) {
     c["domains"] = {{"direct", d.of(*to, 0)}, {"via_pong", d.of(*to, 1)}};
     c["comparison"] = "direct " + to->name + " <-> " + to->name + " (its own ping and pong programs), this case";
@@ -465,8 +485,9 @@ Json run_from_inprocess(const Settings& s, const Placement& placement, const Mod
     fs::create_directories(last_chunk);
     const std::string ping_side = inproc_ping_component(side, size, one_chunk, last_chunk);
     const fs::path app =
-        to ? bench::write_pingpong_app(last_chunk, "matrix_inprocess", to->types_file, ping_side,
-                                       component("PongSide", *to, d.of(*to, 1), size, false), "ping", "pong")
+        to ? bench::write_pingpong_app(last_chunk, "matrix_inprocess", inproc_types(*to, size), ping_side,
+                                       component("PongSide", *to, d.of(*to, 1), size, false), "ping", "pong",
+                                       inproc_mapping(*to))
            : bench::write_pingpong_app(last_chunk, "matrix_inprocess", side.types_file, ping_side,
                                        inproc_pong_component(side, size), "ping", "pong");
     // Taking turns at going first, as run_interleaved does.
@@ -551,15 +572,10 @@ std::optional<Settings> parse(int argc, char** argv) {
 
 
 // The pairs polyport speaks but a run of `s` does not measure, and why: the CAN pairs on the
-// host (and CAN <-> in-process anywhere).
+// host.
 Json can_not_measured(const Settings& s) {
   const bool can = std::find(s.models.begin(), s.models.end(), "can") != s.models.end();
   Json out = Json::array();
-  if (can && std::find(s.models.begin(), s.models.end(), kInprocess) != s.models.end()) {
-    out.push_back({{"pairs", "can <-> inprocess"},
-                   {"reason", "not built: the in-process ping and pong are set against the host models' programs, the "
-                              "CAN pairs run in the vcan guest"}});
-  }
   if (!can) {
     out.push_back({{"pairs", "can <-> every model"},
                    {"reason", "the host kernel has no CAN: the CAN pairs run in the vcan guest (scripts/vcan-run), "
@@ -617,8 +633,9 @@ Json can_settings() {
 // the second bar's figures from the same run).
 bool measures(const Settings& s, const std::string& a, const std::string& b) {
   const bool can = a == "can" || b == "can";
-  if (can && (a == kInprocess || b == kInprocess)) return false;  // see can_not_measured()
   if (s.cross_only && a == b) return false;
+  // --pairs can: the in-process diagonal has no direct series to give (and is the host's).
+  if (s.can_pairs_only && a == kInprocess && b == kInprocess) return false;
   return !(s.can_pairs_only && !can && a != b);
 }
 

@@ -9,10 +9,11 @@ the relays).
                                  pong and back, in classic and in FD frames (needs vcan0 and
                                  vcan1 with the FD MTU)
   can_pairs_test.py matrix BIN   a short run of bench_matrix's CAN part (--pairs can: every CAN
-                                 pair and every diagonal, both size classes) measures every series of
-                                 every CAN case in full (each ping program matches its echoes'
-                                 sequence numbers, probes included), and every CAN case's
-                                 generated profile passes `polyportd check` (needs vcan0..34, FD MTU)
+                                 pair, in-process included, and every program model's diagonal,
+                                 both size classes) measures every series of every CAN case in
+                                 full (each ping matches its echoes' sequence numbers, probes
+                                 included), and every CAN case's generated profile passes
+                                 `polyportd check` (needs vcan0..44, FD MTU)
 
 Exit 0 when it holds, 1 with the reason otherwise."""
 import json
@@ -99,7 +100,7 @@ def matrix(bin_dir):
     with tempfile.TemporaryDirectory() as keep:
         out = os.path.join(keep, "matrix.json")
         r = subprocess.run([os.path.join(bin_dir, "bench_matrix"), out, str(ROUNDS), str(WARMUP), "--chunks", "1",
-                            "--models", "can,cyclonedds,fastdds,lcm", "--pairs", "can", "--sizes", "16,1024",
+                            "--models", "can,cyclonedds,fastdds,lcm,inprocess", "--pairs", "can", "--sizes", "16,1024",
                             "--placements", "unpinned", "--domain-base", "100", "--keep", keep])
         if not os.path.exists(out):
             print(f"bench_matrix wrote no result (exited {r.returncode})")
@@ -107,12 +108,15 @@ def matrix(bin_dir):
         with open(out) as f:
             result = json.load(f)
         cases = [c for c in result["cases"] if "can" in (c["from"], c["to"])]
-        if len(cases) != 14:
-            problems.append(f"{len(cases)} CAN cases, expected 14 (CAN -> 3 models, 3 models -> CAN, CAN -> CAN; "
+        if len(cases) != 18:
+            problems.append(f"{len(cases)} CAN cases, expected 18 (CAN -> 4 models, 4 models -> CAN, CAN -> CAN; "
                             "two sizes)")
         for c in cases:
             label = f"{c['from']} -> {c['to']} {c['size_bytes']} B"
-            series = ["via_polyport", "via_native_relay"] + (["direct"] if c["from"] == c["to"] else [])
+            # An in-process end has no native relay: its series beside via is CAN's direct one.
+            inprocess = "inprocess" in (c["from"], c["to"])
+            series = ["via_polyport"] + ([] if inprocess else ["via_native_relay"]) + (
+                ["direct"] if c["from"] == c["to"] or inprocess else [])
             for s in series:
                 got = c.get(s, {}).get("one_way_ns", {}).get("n")
                 if got != ROUNDS:
@@ -122,7 +126,9 @@ def matrix(bin_dir):
                 problems.append(f"{label}: {c['polyport_error']}")
             if "targets" not in c:
                 problems.append(f"{label}: no bars computed")
-            app = os.path.join(keep, f"{c['placement']}-{c['from']}-{c['to']}-{c['size_bytes']}", "app.xml")
+            case_dir = os.path.join(keep, f"{c['placement']}-{c['from']}-{c['to']}-{c['size_bytes']}")
+            # The in-process ping's series: a polyportd run per chunk, each with its profile.
+            app = os.path.join(case_dir, "chunk-0" if c["from"] == "inprocess" else "", "app.xml")
             check = subprocess.run([os.path.join(bin_dir, "polyportd"), "check", app], capture_output=True, text=True)
             if check.returncode != 0:
                 problems.append(f"{label}: polyportd check {app} exited {check.returncode}:\n{check.stdout}{check.stderr}")
