@@ -202,10 +202,16 @@ std::string component(const std::string& name, const Model& m, int domain, int s
                                    ping_side ? m.ping() : m.pong(), ping_side ? m.pong() : m.ping());
 }
 
+// The types files of an application joining a component of `a` to one of `b`, each once.
+std::vector<std::string> types_files(const Model& a, const Model& b, int size) {
+  std::vector<std::string> files{a.types(size)};
+  if (b.types(size) != a.types(size)) files.push_back(b.types(size));
+  return files;
+}
+
 // polyportd's application of a case: A's ping side on `a`, B's pong side on `b`.
 fs::path write_profiles(const fs::path& dir, const Model& from, const Model& to, int size, int a, int b) {
-  std::vector<std::string> files{from.types(size)};
-  if (to.types(size) != from.types(size)) files.push_back(to.types(size));
+  const std::vector<std::string> files = types_files(from, to, size);
   const std::string mapping =
       from.can != to.can ? kCanMapping
       : from.lcm != to.lcm ? R"(<mapping><field target="seq" source="seq" allow_narrowing="true"/></mapping>)"
@@ -307,13 +313,8 @@ constexpr const char* kInprocess = "inprocess";
 // the in-process layout has a 64-bit integer and padding: there the IDL type, with kCanMapping.
 const Model& inproc_side(const Model& x) { return x.can ? model_named("cyclonedds") : x; }
 
-// The types files and the mapping of an application joining `x`'s component to an in-process
-// one that takes inproc_side(x)'s type.
-std::vector<std::string> inproc_types(const Model& x, int size) {
-  std::vector<std::string> files{x.types(size)};
-  if (inproc_side(x).types(size) != x.types(size)) files.push_back(inproc_side(x).types(size));
-  return files;
-}
+// The mapping of the connections between `x`'s component and an in-process one that takes
+// inproc_side(x)'s type.
 std::string inproc_mapping(const Model& x) { return x.can ? kCanMapping : ""; }
 
 // The in-process pong's component profile, its ports of `side`'s type (so that polyport
@@ -351,7 +352,7 @@ Json run_into_inprocess(const Settings& s, const Placement& placement, const Mod
   if (from.can) c["can_frame_bytes"] = can_frame_bytes(size);
   const std::string sz = std::to_string(from.program_size(size));
   const auto at = [&](int k) { return std::to_string(d.of(from, k)); };
-  const fs::path app = bench::write_pingpong_app(dir, "matrix_inprocess", inproc_types(from, size),
+  const fs::path app = bench::write_pingpong_app(dir, "matrix_inprocess", types_files(from, inproc_side(from), size),
                                                  component("PingSide", from, d.of(from, 1), size, true),
                                                  inproc_pong_component(inproc_side(from), size), "ping", "pong",
                                                  inproc_mapping(from));
@@ -452,7 +453,8 @@ int run_inproc_ping(const fs::path& app, const fs::path& dir, const Placement& p
 Json run_from_inprocess(const Settings& s, const Placement& placement, const Model* to, int size, const Domains& d,
                         const fs::path& dir) {
   fs::create_directories(dir);
-  const Model& side = to ? inproc_side(*to) : model_named("cyclonedds");  // the diagonal's ports: the IDL type
+  // The in-process ping's type: the diagonal's (and CAN's partner's) is the IDL type.
+  const Model& side = to ? inproc_side(*to) : model_named("cyclonedds");
   const bench::Chunking& chunking = s.run.chunking;
   const bench::Chunking one_chunk{chunking.per_chunk(), chunking.warmup, 1};
   Json c{{"placement", placement.name},
@@ -465,7 +467,7 @@ Json run_from_inprocess(const Settings& s, const Placement& placement, const Mod
          {"native_relay", "none: an in-process component lives inside the bridge"},
          {"polyport_figures", "the last chunk's polyportd"}};
   const std::string sz = std::to_string(to ? to->program_size(size) : size);
-  const auto at = [&](int k) { return std::to_string(to ? d.of(*to, k) : d.of(side, k)); };
+  const auto at = [&](int k) { return std::to_string(d.of(to ? *to : side, k)); };
   if (to && to->can) c["can_frame_bytes"] = can_frame_bytes(size);
   if (to) {
     c["domains"] = {{"direct", d.of(*to, 0)}, {"via_pong", d.of(*to, 1)}};
@@ -485,7 +487,7 @@ Json run_from_inprocess(const Settings& s, const Placement& placement, const Mod
     fs::create_directories(last_chunk);
     const std::string ping_side = inproc_ping_component(side, size, one_chunk, last_chunk);
     const fs::path app =
-        to ? bench::write_pingpong_app(last_chunk, "matrix_inprocess", inproc_types(*to, size), ping_side,
+        to ? bench::write_pingpong_app(last_chunk, "matrix_inprocess", types_files(*to, side, size), ping_side,
                                        component("PongSide", *to, d.of(*to, 1), size, false), "ping", "pong",
                                        inproc_mapping(*to))
            : bench::write_pingpong_app(last_chunk, "matrix_inprocess", side.types_file, ping_side,
@@ -629,8 +631,8 @@ Json can_settings() {
 }
 
 // Whether the run measures the pair a -> b at `size`: --pairs cross leaves out the diagonal;
-// --pairs can keeps the pairs with CAN on a side and every diagonal (their direct series give
-// the second bar's figures from the same run).
+// --pairs can keeps the pairs with CAN on a side and every diagonal but the in-process one
+// (their direct series give the second bar's figures from the same run).
 bool measures(const Settings& s, const std::string& a, const std::string& b) {
   const bool can = a == "can" || b == "can";
   if (s.cross_only && a == b) return false;
