@@ -2,8 +2,6 @@
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
-#include <poll.h>
-#include <sys/eventfd.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -73,23 +71,22 @@ MulticastAddress multicast_address(const std::string& url) {
   return address;
 }
 
-std::shared_ptr<Instance> Instance::create(const std::string& url) {
-  return std::shared_ptr<Instance>(new Instance(url));
+std::shared_ptr<FdReactor> Instance::create_reactor() {
+  return FdReactor::create("pp-lcm-recv", "the LCM receive thread");
+}
+
+std::shared_ptr<Instance> Instance::create(const std::string& url, std::shared_ptr<FdReactor> reactor) {
+  return std::shared_ptr<Instance>(new Instance(url, std::move(reactor)));
 }
 
 Instance::~Instance() {
-  if (thread_.joinable()) {
-    stopping_.store(true, std::memory_order_release);
-    const std::uint64_t one = 1;
-    (void)!write(wake_fd_, &one, sizeof one);
-    thread_.join();
-  }
-  if (wake_fd_ >= 0) close(wake_fd_);
+  // After remove() the receive thread is past any lcm_handle of this instance.
+  if (receiving_) reactor_->remove(fileno_);
   if (lcm_ != nullptr) lcm_destroy(lcm_);
 }
 
 Result<void> Instance::start() {
-  if (thread_.joinable()) return {};
+  if (receiving_) return {};
   const MulticastAddress address = multicast_address(url_);
   if (!address.group.empty()) {
     // Before lcm_create, which refuses a group without a route and prints its own advice.
@@ -109,49 +106,16 @@ Result<void> Instance::start() {
     }
     return make_error(message);
   }
-  wake_fd_ = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
-  if (wake_fd_ < 0) return make_error(std::string("eventfd: ") + std::strerror(errno));
-  thread_ = std::thread([this] { run(); });
-  pthread_setname_np(thread_.native_handle(), "pp-lcm-recv");
-  apply_scheduling();
+  if (auto added = reactor_->add(fileno_, *this); !added) {
+    return make_error("LCM cannot receive on '" + url_ + "': " + added.error().message);
+  }
+  receiving_ = true;
   return {};
 }
 
-void Instance::want(const ThreadScheduling& scheduling) {
-  const ThreadScheduling wanted = scheduling_ ? stronger(*scheduling_, scheduling) : scheduling;
-  if (scheduling_ && wanted == *scheduling_) return;
-  scheduling_ = wanted;
-  if (thread_.joinable()) apply_scheduling();
-}
+nlohmann::json Instance::scheduling() const { return reactor_->scheduling(); }
 
-void Instance::apply_scheduling() {
-  if (!scheduling_) return;
-  applied_ = polyport::apply_scheduling(thread_.native_handle(), *scheduling_, "LCM receive thread of '" + url_ + "'");
-  if (!applied_.problem.empty()) spdlog::warn("{}", applied_.problem);
-}
-
-nlohmann::json Instance::scheduling() const {
-  if (!scheduling_) return nullptr;
-  return {{"asked", to_string(*scheduling_)}, {"realtime", applied_.realtime_applied}, {"pinned", applied_.pinned}};
-}
-
-void Instance::run() noexcept {
-  pollfd fds[2] = {{fileno_, POLLIN, 0}, {wake_fd_, POLLIN, 0}};
-  while (!stopping_.load(std::memory_order_acquire)) {
-    const int ready = poll(fds, 2, -1);
-    if (ready < 0) {
-      if (errno == EINTR) continue;
-      return;
-    }
-    if ((fds[0].revents & POLLIN) != 0) {
-      // The descriptor said a message is queued and this thread is the instance's only
-      // caller of lcm_handle, so it returns at once. (lcm_handle_timeout would select on the
-      // same descriptor again: one system call more per message, measured in the LCM
-      // benchmark.)
-      (void)lcm_handle(lcm_);
-    }
-  }
-}
+void Instance::on_readable() noexcept { (void)lcm_handle(lcm_); }
 
 ChannelEchoes& Instance::echoes(const std::string& channel) {
   auto& echoes = echoes_[channel];

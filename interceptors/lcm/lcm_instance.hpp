@@ -1,9 +1,12 @@
 // One LCM instance (lcm_t) per provider URL, shared by every LCM proxy of the daemon that
-// names that URL, with the one receive thread that dispatches its subscriptions.
+// names that URL.
 //
-// Threads: the receive thread polls LCM's notification descriptor (lcm_get_fileno) and a
-// wake-up eventfd, and calls lcm_handle when a message is ready, so subscription handlers
-// run on it. publish() runs on whichever thread forwards a sample (LCM serialises sends
+// Threads: the model's one LCM receive thread (an FdReactor, interceptors/common, named
+// pp-lcm-recv) waits on every instance's notification descriptor (lcm_get_fileno) and calls
+// lcm_handle when a message is ready, so subscription handlers run on it. One thread for all
+// instances, as the SDK-only relay does: with one per instance polyport bridging two LCM
+// networks paid 5 µs more per message at the median than that relay (README, "LCM
+// benchmark"). publish() runs on whichever thread forwards a sample (LCM serialises sends
 // itself). Everything else runs on the control thread.
 #pragma once
 
@@ -11,13 +14,12 @@
 #include <map>
 #include <memory>
 #include <string>
-#include <thread>
 
+#include "fd_reactor.hpp"
 #include "polyport/base/result.hpp"
 #include "polyport/runtime/echo_table.hpp"
 #include "polyport/runtime/thread_scheduling.hpp"
 #include <nlohmann/json_fwd.hpp>
-#include <optional>
 
 extern "C" {
 struct _lcm_t;
@@ -48,17 +50,20 @@ struct ChannelEchoes {
   std::atomic<std::uint32_t> publishers{0};   // polyport's data publishers of the channel
 };
 
-class Instance {
+class Instance final : public ReadableHandler {
  public:
+  // The model's receive thread for LCM instances (pp-lcm-recv); one per daemon.
+  static std::shared_ptr<FdReactor> create_reactor();
   // Nothing is opened before start(), so a profile is checked on any host.
-  static std::shared_ptr<Instance> create(const std::string& url);
-  ~Instance();
+  static std::shared_ptr<Instance> create(const std::string& url, std::shared_ptr<FdReactor> reactor);
+  ~Instance() override;
   Instance(const Instance&) = delete;
   Instance& operator=(const Instance&) = delete;
 
-  // Opens the provider, sets up receiving and starts the receive thread (once; later calls
-  // return at once). A udpm URL whose multicast group has no route, or whose datagrams do not
-  // come back to this host, is an error that says which route to add.
+  // Opens the provider, sets up receiving and hands the notification descriptor to the
+  // receive thread (once; later calls return at once). A udpm URL whose multicast group has no
+  // route, or whose datagrams do not come back to this host, is an error that says which
+  // route to add.
   Result<void> start();
 
   // Subscribes to exactly `channel` (not a pattern). Control thread.
@@ -76,26 +81,26 @@ class Instance {
   ChannelEchoes& echoes(const std::string& channel);
 
   // The scheduling a component asks for the receive thread (<lcm><receive_thread>); the
-  // strongest of the requests of the components sharing the instance is applied when the
-  // thread starts, or at once when it runs already (one warning when refused). Control thread.
-  void want(const ThreadScheduling& scheduling);
+  // strongest of the requests of all the daemon's LCM components is applied when the thread
+  // starts, or at once when it runs already (one warning when refused). Control thread.
+  void want(const ThreadScheduling& scheduling) { reactor_->want(scheduling); }
   // {"asked": "SCHED_FIFO 60", "realtime": true, "pinned": false}; null when nothing was asked.
   nlohmann::json scheduling() const;
 
+  // The receive thread: a message is queued, and this thread is the instance's only caller of
+  // lcm_handle, so it returns at once. (lcm_handle_timeout would select on the same descriptor
+  // again: one system call more per message, measured in the LCM benchmark.)
+  void on_readable() noexcept override;
+
  private:
-  void apply_scheduling();
-  explicit Instance(std::string url) : url_(std::move(url)) {}
-  void run() noexcept;
+  Instance(std::string url, std::shared_ptr<FdReactor> reactor) : url_(std::move(url)), reactor_(std::move(reactor)) {}
 
   std::string url_;
+  std::shared_ptr<FdReactor> reactor_;
   std::map<std::string, std::unique_ptr<ChannelEchoes>> echoes_;
   lcm_t* lcm_ = nullptr;
   int fileno_ = -1;
-  int wake_fd_ = -1;
-  std::atomic<bool> stopping_{false};
-  std::thread thread_;
-  std::optional<ThreadScheduling> scheduling_;
-  SchedulingOutcome applied_;
+  bool receiving_ = false;  // the descriptor is with the receive thread
 };
 
 // Escapes `channel` for lcm_subscribe, which takes an anchored regular expression.

@@ -12,9 +12,14 @@ std::optional<Proxy> LcmModel::create_proxy(const Subcomponent& sub, ModelContex
   std::unique_ptr<LcmAdaptor> adaptor = LcmAdaptor::create(sub, context.types, diagnostics);
   if (!adaptor) return std::nullopt;
 
+  std::shared_ptr<FdReactor> reactor = reactor_.lock();
+  if (!reactor) {
+    reactor = Instance::create_reactor();
+    reactor_ = reactor;
+  }
   std::shared_ptr<Instance> instance = instances_[settings->url].lock();
   if (!instance) {
-    instance = Instance::create(settings->url);
+    instance = Instance::create(settings->url, std::move(reactor));
     instances_[settings->url] = instance;
   }
   if (settings->receive_thread) instance->want(*settings->receive_thread);

@@ -23,6 +23,7 @@ class LcmModel final : public Model {
  private:
   LcmSection section_;
   std::map<std::string, std::weak_ptr<Instance>> instances_;  // by URL
+  std::weak_ptr<FdReactor> reactor_;
 };
 
 }  // namespace polyport::lcm

@@ -110,23 +110,31 @@ class Child {
   int code_ = -1;
 };
 
-// The scheduling of a process's thread named `name` (its comm), from /proc/PID/task/TID/stat:
-// {real-time priority (field 40), policy (field 41: 0 SCHED_OTHER, 1 SCHED_FIFO, 2 SCHED_RR)};
-// nullopt when no thread has that name.
 // A whole file as text ("" when it cannot be read): logs, traces, statistics files.
 inline std::string read_file(const fs::path& file) {
   std::ifstream in(file);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-inline std::optional<std::pair<int, int>> thread_scheduling(pid_t pid, const std::string& name) {
+// The /proc/PID/task/TID folders of a process's threads named `name` (their comm).
+inline std::vector<fs::path> threads_named(pid_t pid, const std::string& name) {
+  std::vector<fs::path> out;
   std::error_code ec;
   for (const auto& task : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task", ec)) {
     std::ifstream comm(task.path() / "comm");
     std::string comm_name;
     std::getline(comm, comm_name);
-    if (comm_name != name) continue;
-    std::ifstream stat(task.path() / "stat");
+    if (comm_name == name) out.push_back(task.path());
+  }
+  return out;
+}
+
+// The scheduling of a process's thread named `name`, from /proc/PID/task/TID/stat:
+// {real-time priority (field 40), policy (field 41: 0 SCHED_OTHER, 1 SCHED_FIFO, 2 SCHED_RR)};
+// nullopt when no thread has that name.
+inline std::optional<std::pair<int, int>> thread_scheduling(pid_t pid, const std::string& name) {
+  for (const fs::path& task : threads_named(pid, name)) {
+    std::ifstream stat(task / "stat");
     const std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
     std::istringstream fields(text.substr(text.rfind(')') + 2));  // from field 3 on
     const std::vector<std::string> f{std::istream_iterator<std::string>(fields), std::istream_iterator<std::string>()};

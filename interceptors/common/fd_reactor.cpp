@@ -1,4 +1,4 @@
-#include "can_reactor.hpp"
+#include "fd_reactor.hpp"
 
 #include <sys/epoll.h>
 #include <sys/eventfd.h>
@@ -9,20 +9,26 @@
 #include <cerrno>
 #include <cstring>
 #include <string>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
-namespace polyport::socketcan {
+namespace polyport {
 
 namespace {
 // epoll_event.data.ptr of the timer descriptor (the wake-up descriptor has null).
 int timer_tag = 0;
 }  // namespace
 
-std::shared_ptr<CanReactor> CanReactor::create() { return std::shared_ptr<CanReactor>(new CanReactor()); }
+FdReactor::FdReactor(std::string thread_name, std::string what)
+    : thread_name_(std::move(thread_name)), what_(std::move(what)) {}
 
-CanReactor::~CanReactor() {
+std::shared_ptr<FdReactor> FdReactor::create(std::string thread_name, std::string what) {
+  return std::shared_ptr<FdReactor>(new FdReactor(std::move(thread_name), std::move(what)));
+}
+
+FdReactor::~FdReactor() {
   if (thread_.joinable()) {
     stopping_.store(true, std::memory_order_release);
     const std::uint64_t one = 1;
@@ -34,7 +40,7 @@ CanReactor::~CanReactor() {
   if (epoll_fd_ >= 0) ::close(epoll_fd_);
 }
 
-Result<void> CanReactor::start() {
+Result<void> FdReactor::start() {
   const std::lock_guard lock(start_mutex_);
   if (thread_.joinable()) return {};
   // A failure closes what this call opened, so a later add() starts afresh and leaks nothing.
@@ -56,19 +62,15 @@ Result<void> CanReactor::start() {
   if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, wake_fd_, &event) != 0) return fail("epoll_ctl");
   timer_fd_ = ::timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC | TFD_NONBLOCK);
   if (timer_fd_ < 0) return fail("timerfd_create");
-  itimerspec period{};
-  period.it_interval.tv_nsec = std::chrono::nanoseconds(kTickInterval).count();
-  period.it_value = period.it_interval;
-  if (::timerfd_settime(timer_fd_, 0, &period, nullptr) != 0) return fail("timerfd_settime");
   event.data.ptr = &timer_tag;
   if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, timer_fd_, &event) != 0) return fail("epoll_ctl");
   thread_ = std::thread([this] { run(); });
-  pthread_setname_np(thread_.native_handle(), "pp-can-epoll");
+  pthread_setname_np(thread_.native_handle(), thread_name_.c_str());
   apply_scheduling();
   return {};
 }
 
-void CanReactor::want(const ThreadScheduling& scheduling) {
+void FdReactor::want(const ThreadScheduling& scheduling) {
   std::lock_guard<std::mutex> lock(start_mutex_);
   const ThreadScheduling wanted = scheduling_ ? stronger(*scheduling_, scheduling) : scheduling;
   if (scheduling_ && wanted == *scheduling_) return;
@@ -76,19 +78,19 @@ void CanReactor::want(const ThreadScheduling& scheduling) {
   if (thread_.joinable()) apply_scheduling();
 }
 
-void CanReactor::apply_scheduling() {
+void FdReactor::apply_scheduling() {
   if (!scheduling_) return;
-  applied_ = polyport::apply_scheduling(thread_.native_handle(), *scheduling_, "the CAN receive thread");
+  applied_ = polyport::apply_scheduling(thread_.native_handle(), *scheduling_, what_);
   if (!applied_.problem.empty()) spdlog::warn("{}", applied_.problem);
 }
 
-nlohmann::json CanReactor::scheduling() const {
+nlohmann::json FdReactor::scheduling() const {
   std::lock_guard<std::mutex> lock(start_mutex_);
   if (!scheduling_) return nullptr;
   return {{"asked", to_string(*scheduling_)}, {"realtime", applied_.realtime_applied}, {"pinned", applied_.pinned}};
 }
 
-Result<void> CanReactor::add(int fd, ReadableHandler& handler) {
+Result<void> FdReactor::add(int fd, ReadableHandler& handler) {
   if (auto started = start(); !started) return started;
   epoll_event event{};
   event.events = EPOLLIN;
@@ -99,7 +101,7 @@ Result<void> CanReactor::add(int fd, ReadableHandler& handler) {
   return {};
 }
 
-void CanReactor::remove(int fd) noexcept {
+void FdReactor::remove(int fd) noexcept {
   if (!thread_.joinable()) return;
   (void)::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd, nullptr);
   // The thread may have taken this socket's event from epoll_wait before the DEL and be
@@ -113,9 +115,9 @@ void CanReactor::remove(int fd) noexcept {
   }
 }
 
-void CanReactor::remove_in_tick(int fd) noexcept { (void)::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd, nullptr); }
+void FdReactor::remove_in_tick(int fd) noexcept { (void)::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd, nullptr); }
 
-Result<void> CanReactor::add_in_tick(int fd, ReadableHandler& handler) {
+Result<void> FdReactor::add_in_tick(int fd, ReadableHandler& handler) {
   epoll_event event{};
   event.events = EPOLLIN;
   event.data.ptr = &handler;
@@ -125,26 +127,39 @@ Result<void> CanReactor::add_in_tick(int fd, ReadableHandler& handler) {
   return {};
 }
 
-Result<void> CanReactor::watch(Supervised& supervised) {
+Result<void> FdReactor::watch(Supervised& supervised) {
   if (auto started = start(); !started) return started;
+  {
+    // The tick runs once something is watched (an idle timer would wake the thread for nothing).
+    const std::lock_guard lock(start_mutex_);
+    if (!ticking_) {
+      itimerspec period{};
+      period.it_interval.tv_nsec = std::chrono::nanoseconds(kTickInterval).count();
+      period.it_value = period.it_interval;
+      if (::timerfd_settime(timer_fd_, 0, &period, nullptr) != 0) {
+        return make_error(std::string("timerfd_settime: ") + std::strerror(errno));
+      }
+      ticking_ = true;
+    }
+  }
   const std::lock_guard lock(supervised_mutex_);
   supervised_.push_back(&supervised);
   return {};
 }
 
-void CanReactor::unwatch(Supervised& supervised) noexcept {
+void FdReactor::unwatch(Supervised& supervised) noexcept {
   const std::lock_guard lock(supervised_mutex_);
   supervised_.erase(std::remove(supervised_.begin(), supervised_.end(), &supervised), supervised_.end());
 }
 
-void CanReactor::tick() noexcept {
+void FdReactor::tick() noexcept {
   std::uint64_t expirations = 0;
   (void)::read(timer_fd_, &expirations, sizeof expirations);
   const std::lock_guard lock(supervised_mutex_);
   for (Supervised* supervised : supervised_) supervised->on_tick();
 }
 
-void CanReactor::run() noexcept {
+void FdReactor::run() noexcept {
   constexpr int kMaxEvents = 16;
   epoll_event events[kMaxEvents];
   while (!stopping_.load(std::memory_order_acquire)) {
@@ -168,10 +183,4 @@ void CanReactor::run() noexcept {
   rounds_.notify_all();
 }
 
-CanEchoes& CanReactor::echoes(const std::string& interface) {
-  auto& echoes = echoes_[interface];
-  if (!echoes) echoes = std::make_unique<CanEchoes>();
-  return *echoes;
-}
-
-}  // namespace polyport::socketcan
+}  // namespace polyport
