@@ -129,8 +129,9 @@ Status LcmInterceptor::ChannelWriter::on_sample(const std::byte* data, const Sam
   std::uint64_t fingerprint = 0;
   if (subscribers != 0) {
     fingerprint = message_fingerprint(data, meta.size);
-    // The sample's entry time, recent enough for an entry that lives a second: no clock read.
-    if (!echoes.table.expect(fingerprint, subscribers, meta.t_in.ns != 0 ? meta.t_in : mono_now())) echo_unrecorded.fetch_add(1, std::memory_order_relaxed);
+    // Now, not the sample's entry time: a polled or rate-limited connection hands a sample on
+    // up to its period later, and an entry stamped then could be expired before it is sent.
+    if (!echoes.table.expect(fingerprint, subscribers, mono_now())) echo_unrecorded.fetch_add(1, std::memory_order_relaxed);
   }
   if (instance_.publish(channel_.channel.c_str(), data, meta.size) != 0) {
     if (subscribers != 0) echoes.table.forget(fingerprint);

@@ -102,9 +102,9 @@ Status SocketCanInterceptor::FrameWriter::on_sample(const std::byte* data, const
     std::uint64_t fingerprint = 0;
     if (readers != 0) {
       fingerprint = frame_fingerprint(frame.can_id, frame.len, frame.data);
-      // The sample's entry time is recent enough for an entry that lives a second, and costs
-      // no clock read (a system call under user-mode Linux).
-      if (!echoes_.table.expect(fingerprint, readers, meta.t_in.ns != 0 ? meta.t_in : mono_now()))
+      // Now, not the sample's entry time: a polled or rate-limited connection hands a sample
+      // on up to its period later, and an entry stamped then could be expired before it is sent.
+      if (!echoes_.table.expect(fingerprint, readers, mono_now()))
         counters_.echo_unrecorded.fetch_add(1, std::memory_order_relaxed);
     }
     ok = ::write(fd_.load(std::memory_order_acquire), &frame, size) == static_cast<ssize_t>(size);
