@@ -63,7 +63,8 @@ class FdReactor {
   Result<void> add(int fd, ReadableHandler& handler);
   // Stops watching `fd` and waits until the thread is past any call of its handler.
   void remove(int fd) noexcept;
-  // The same, from a Supervised's on_tick (the reactor thread itself, so nothing to wait for).
+  // The same, on the reactor thread itself (a Supervised's on_tick, or a handler taking its own
+  // descriptor out), so nothing to wait for.
   void remove_in_tick(int fd) noexcept;
   Result<void> add_in_tick(int fd, ReadableHandler& handler);
 

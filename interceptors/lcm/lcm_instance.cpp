@@ -86,7 +86,7 @@ Instance::~Instance() {
 }
 
 Result<void> Instance::start() {
-  if (receiving_) return {};
+  if (fileno_ >= 0) return {};
   const MulticastAddress address = multicast_address(url_);
   if (!address.group.empty()) {
     // Before lcm_create, which refuses a group without a route and prints its own advice.
@@ -106,6 +106,13 @@ Result<void> Instance::start() {
     }
     return make_error(message);
   }
+  return {};
+}
+
+Result<void> Instance::receive() {
+  if (receiving_) return {};
+  if (fileno_ < 0) return make_error("LCM provider '" + url_ + "' is not open");
+  reads_log_ = url_.rfind("file://", 0) == 0;  // before the receive thread can call on_readable
   if (auto added = reactor_->add(fileno_, *this); !added) {
     return make_error("LCM cannot receive on '" + url_ + "': " + added.error().message);
   }
@@ -115,7 +122,14 @@ Result<void> Instance::start() {
 
 nlohmann::json Instance::scheduling() const { return reactor_->scheduling(); }
 
-void Instance::on_readable() noexcept { (void)lcm_handle(lcm_); }
+void Instance::on_readable() noexcept {
+  if (lcm_handle(lcm_) < 0 && reads_log_) {
+    // liblcm's file provider at the end of its log: the descriptor stays readable and every
+    // lcm_handle returns -1 at once, so the thread would spin on it from now on.
+    reactor_->remove_in_tick(fileno_);
+    log_ended_.store(true, std::memory_order_release);
+  }
+}
 
 ChannelEchoes& Instance::echoes(const std::string& channel) {
   auto& echoes = echoes_[channel];

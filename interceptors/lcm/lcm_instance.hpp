@@ -60,11 +60,14 @@ class Instance final : public ReadableHandler {
   Instance(const Instance&) = delete;
   Instance& operator=(const Instance&) = delete;
 
-  // Opens the provider, sets up receiving and hands the notification descriptor to the
-  // receive thread (once; later calls return at once). A udpm URL whose multicast group has no
-  // route, or whose datagrams do not come back to this host, is an error that says which
-  // route to add.
+  // Opens the provider and sets up receiving (once; later calls return at once). A udpm URL
+  // whose multicast group has no route, or whose datagrams do not come back to this host, is
+  // an error that says which route to add.
   Result<void> start();
+  // Hands the notification descriptor to the receive thread (once), after the caller's
+  // subscriptions: what arrives before is queued by LCM, not dispatched to no one (a replayed
+  // log would lose its first messages).
+  Result<void> receive();
 
   // Subscribes to exactly `channel` (not a pattern). Control thread.
   Result<lcm_subscription_t*> subscribe(const std::string& channel, MessageHandler& handler);
@@ -75,6 +78,8 @@ class Instance final : public ReadableHandler {
   int publish(const char* channel, const void* data, std::uint32_t size) noexcept;
 
   const std::string& url() const noexcept { return url_; }
+  // A file:// provider has replayed its whole log (the receive thread stopped watching it).
+  bool log_ended() const noexcept { return log_ended_.load(std::memory_order_acquire); }
 
   // The loop-prevention state of `channel` on this instance; lives as long as the instance.
   // Control thread.
@@ -101,6 +106,8 @@ class Instance final : public ReadableHandler {
   lcm_t* lcm_ = nullptr;
   int fileno_ = -1;
   bool receiving_ = false;  // the descriptor is with the receive thread
+  bool reads_log_ = false;  // a file:// provider
+  std::atomic<bool> log_ended_{false};
 };
 
 // Escapes `channel` for lcm_subscribe, which takes an anchored regular expression.

@@ -201,6 +201,10 @@ Result<void> LcmInterceptor::start() {
       return make_error(adaptor_.name() + ": " + started.error().message);
     }
   }
+  if (auto receiving = instance_->receive(); !receiving) {
+    stop();
+    return make_error(adaptor_.name() + ": " + receiving.error().message);
+  }
   active_ = true;
   return {};
 }
@@ -266,6 +270,7 @@ void LcmInterceptor::describe(nlohmann::json& out) const {
     services.push_back(std::move(s));
   }
   out["lcm"] = {{"url", instance_->url()}, {"channels", std::move(channels)}, {"services", std::move(services)}};
+  if (instance_->log_ended()) out["lcm"]["log_ended"] = true;
   if (nlohmann::json scheduling = instance_->scheduling(); !scheduling.is_null()) {
     out["lcm"]["receive_thread"] = std::move(scheduling);
   }

@@ -584,5 +584,51 @@ TEST_F(LcmEndToEnd, ChannelBridgedBothWaysForwardsEachMessageOnce) {
   EXPECT_EQ((*in_b)["received"].get<std::size_t>(), from_a.size() + from_b.size()) << in_b->dump(2);
 }
 
+// A log replayed through a file:// provider: every message of the log arrives, and at its end
+// the receive thread stops watching the provider (liblcm's file provider then leaves its
+// descriptor readable and fails every lcm_handle at once: watched, the thread would spin on
+// it) and the statistics say the log ended. The thread's CPU time over a second after the
+// replay is the check: spinning it would take nearly all of that second.
+TEST_F(LcmEndToEnd, AReplayedLogEndsWithoutKeepingTheReceiveThreadBusy) {
+  const fs::path log = dir() / "poses.log";
+  std::size_t logged = 0;
+  {
+    auto writer = lcm_peer("writer", {"pub", "file://" + log.string() + "?mode=w", "POSE", "1"});
+    ASSERT_TRUE(eventually([&] { return writer->lines().size() >= 20; }, 30s)) << writer->errors();
+    writer->signal(SIGTERM);
+    ASSERT_EQ(writer->wait(10s), 0) << writer->errors();
+    for (const Json& j : writer->lines()) logged += j.value("event", "") == "published" ? 1 : 0;
+  }
+  ASSERT_GE(logged, 20U);
+  std::ofstream(dir() / "LogSource.xml")
+      << "<?xml version=\"1.0\"?>\n<component_profile><name>LogSource</name><model>lcm</model>\n"
+         "  <lcm><url>file://" << log.string() << "?mode=r&amp;speed=0</url></lcm>\n"
+         "  <types><file>" POLYPORT_SOURCE_DIR "/tests/lcm_e2e/lcm/peer.lcm</file></types>\n"
+         "  <ports><data_port><name>pose</name><data_type>peer::pose_t</data_type><usage>output</usage>"
+         "<channel>POSE</channel></data_port></ports>\n</component_profile>\n";
+  std::ofstream(dir() / "log_app.xml")
+      << "<?xml version=\"1.0\"?>\n<application_profile><name>log</name>\n  <subcomponents><subcomponent>"
+         "<name>log</name><reference>LogSource.xml</reference></subcomponent></subcomponents>\n"
+         "</application_profile>\n";
+  auto daemon = this->daemon(dir() / "log_app.xml");
+  ASSERT_TRUE(eventually([&] { return threads_named(daemon->pid(), "pp-lcm-recv").size() == 1; })) << daemon->errors();
+  const fs::path thread = threads_named(daemon->pid(), "pp-lcm-recv").front();
+  const auto cpu_ticks = [&] {  // utime + stime (fields 14 and 15) of the thread
+    const std::string text = read_file(thread / "stat");
+    std::istringstream fields(text.substr(text.rfind(')') + 2));  // from field 3 on
+    const std::vector<std::string> f{std::istream_iterator<std::string>(fields), std::istream_iterator<std::string>()};
+    return f.size() > 12 ? std::stoll(f[11]) + std::stoll(f[12]) : -1LL;
+  };
+  const long long before = cpu_ticks();
+  std::this_thread::sleep_for(1s);  // the measured window
+  const long long after = cpu_ticks();
+  ASSERT_GE(before, 0);
+  EXPECT_LT(after - before, sysconf(_SC_CLK_TCK) / 5) << "receive thread CPU ticks in 1 s: " << after - before;
+  const Json stats = stop(*daemon);
+  const Json& lcm = stats["components"][0]["lcm"];
+  EXPECT_TRUE(lcm.value("log_ended", false)) << stats.dump(2);
+  EXPECT_EQ(lcm["channels"][0].value("received", 0ULL), logged) << stats.dump(2);
+}
+
 }  // namespace
 }  // namespace polyport::test
