@@ -92,13 +92,7 @@ nlohmann::json FdReactor::scheduling() const {
 
 Result<void> FdReactor::add(int fd, ReadableHandler& handler) {
   if (auto started = start(); !started) return started;
-  epoll_event event{};
-  event.events = EPOLLIN;
-  event.data.ptr = &handler;
-  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &event) != 0) {
-    return make_error(std::string("epoll_ctl(EPOLL_CTL_ADD): ") + std::strerror(errno));
-  }
-  return {};
+  return add_in_tick(fd, handler);
 }
 
 void FdReactor::remove(int fd) noexcept {

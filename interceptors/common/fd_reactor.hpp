@@ -66,6 +66,7 @@ class FdReactor {
   // The same, on the reactor thread itself (a Supervised's on_tick, or a handler taking its own
   // descriptor out), so nothing to wait for.
   void remove_in_tick(int fd) noexcept;
+  // Watches `fd` on a running thread (add() once the thread is started; a tick re-adding).
   Result<void> add_in_tick(int fd, ReadableHandler& handler);
 
   // The scheduling a component asks for the thread (<receive_thread>); the strongest request
