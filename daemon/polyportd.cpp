@@ -29,6 +29,7 @@
 #include "metrics.hpp"
 #include "metrics_server.hpp"
 #include "models.hpp"
+#include "polyport/base/clock.hpp"
 #include "polyport/runtime/component_api.hpp"
 #include "polyport/runtime/engine.hpp"
 #include "polyport/profile/profile.hpp"
@@ -76,6 +77,7 @@ struct Options {
   std::string record_file;   // empty: no recording
   std::vector<std::string> record_connections;  // empty: every data connection
   std::uint32_t record_depth = 1024;
+  std::string clock = "auto";  // auto, system, tsc: the clock of the forwarding path's stamps
 };
 
 // The shipped plugins' folder: the build's lib/ for the binary of the build tree; for an
@@ -418,6 +420,11 @@ nlohmann::json collect_stats(const Engine& engine, const Options& options, std::
   stats["polyport_version"] = POLYPORT_VERSION;
   stats["profiles"] = options.profiles;
   stats["run_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  const ClockStats clock = clock_stats();
+  stats["clock"] = {{"source", clock.tsc ? "tsc" : "system"}};
+  if (clock.tsc)
+    stats["clock"].update({{"tsc_ghz", clock.tsc_ghz}, {"calibrations", clock.calibrations}, {"steps", clock.steps},
+                           {"last_error_ns", clock.last_error_ns}, {"max_abs_error_ns", clock.max_abs_error_ns}});
   return stats;
 }
 
@@ -507,6 +514,21 @@ int run_daemon(const Options& options) {
   sigaddset(&signals, SIGTERM);
   sigaddset(&signals, SIGHUP);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  // Before anything stamps: every stamp of the run is on one clock.
+  const ClockChoice choice = options.clock == "system" ? ClockChoice::system
+                             : options.clock == "tsc"  ? ClockChoice::tsc
+                                                       : ClockChoice::automatic;
+  const Result<ClockInfo> clock = use_clock(choice);
+  if (!clock) {
+    spdlog::error("--clock tsc: {}", clock.error().message);
+    return kExitUsage;
+  }
+  if (clock.value().tsc)
+    spdlog::info("stamps from the TSC clock ({:.6f} GHz, kept on CLOCK_MONOTONIC every 250 ms): {}",
+                 clock.value().tsc_ghz, clock.value().why);
+  else
+    spdlog::debug("stamps from clock_gettime: {}", clock.value().why);
 
   TypeRegistry types;
   ModelRegistry models;
@@ -761,6 +783,11 @@ int main(int argc, char** argv) {
                   "serve Prometheus metrics at http://ADDRESS:PORT/metrics (0: a free port, logged and in "
                   "`polyportctl hello`); see docs/CONTROL.md")
       ->check(CLI::Range(0, 65535));
+  run->add_option("--clock", options.clock,
+                  "the clock of the forwarding path's stamps: system (clock_gettime), tsc (the CPU's invariant TSC "
+                  "kept on CLOCK_MONOTONIC), auto (tsc where a clock_gettime is a system call); see docs/ARCHITECTURE.md")
+      ->check(CLI::IsMember({"auto", "system", "tsc"}))
+      ->capture_default_str();
   run->add_option("--metrics-address", options.metrics_address, "the address --metrics-port listens on")
       ->capture_default_str();
 

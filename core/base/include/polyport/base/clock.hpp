@@ -1,9 +1,21 @@
 // Time on the forwarding path is CLOCK_MONOTONIC, as nanoseconds in distinct types so that
 // a monotonic stamp is never mixed up with a wall-clock one or with a duration.
+//
+// mono_now() and wall_now() read the system clocks (clock_gettime, a vDSO call of ≈ 25 ns on
+// an ordinary Linux host). Where clock_gettime is a system call instead — user-mode Linux,
+// some hypervisors' clock sources: microseconds per read, several reads per forwarded
+// sample — a process may switch them to the TSC clock (use_clock, below): the CPU's
+// invariant time-stamp counter scaled to CLOCK_MONOTONIC and kept on it by a calibration
+// thread, as the vDSO itself does on a host whose clock source is the TSC. The switch is
+// made once, before any stamp is taken; readers never wait for the calibration thread.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <ctime>
+#include <string>
+
+#include "polyport/base/result.hpp"
 
 namespace polyport {
 
@@ -25,13 +37,62 @@ struct WallTime {  // a CLOCK_REALTIME instant, for headers and logs only
   std::int64_t ns = 0;
 };
 
+namespace detail {
+
+// The TSC clock's scale, published by its calibration thread as a latch (two copies and a
+// sequence: a reader takes the copy the writer is not changing, and reads again only if the
+// sequence moved meanwhile, so it never waits for a preempted writer).
+struct TscScale {
+  std::atomic<std::int64_t> base_tsc{0};
+  std::atomic<std::int64_t> base_mono_ns{0};  // CLOCK_MONOTONIC at base_tsc
+  std::atomic<std::int64_t> wall_minus_mono_ns{0};
+  std::atomic<std::uint64_t> ns_per_tick_q32{0};  // nanoseconds per tick, 32.32 fixed point
+};
+struct TscClock {
+  std::atomic<bool> active{false};
+  std::atomic<std::uint32_t> sequence{0};
+  TscScale copies[2];
+};
+extern TscClock g_tsc_clock;  // clock.cpp
+
+#if defined(__x86_64__)
+inline std::int64_t tsc_mono_ns(std::int64_t* wall_offset = nullptr) noexcept {
+  for (;;) {
+    const std::uint32_t sequence = g_tsc_clock.sequence.load(std::memory_order_acquire);
+    const TscScale& scale = g_tsc_clock.copies[sequence & 1U];
+    const std::int64_t base_tsc = scale.base_tsc.load(std::memory_order_relaxed);
+    const std::int64_t base_ns = scale.base_mono_ns.load(std::memory_order_relaxed);
+    const std::uint64_t per_tick = scale.ns_per_tick_q32.load(std::memory_order_relaxed);
+    const std::int64_t wall = scale.wall_minus_mono_ns.load(std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_acquire);
+    if (g_tsc_clock.sequence.load(std::memory_order_relaxed) != sequence) continue;
+    const auto ticks = static_cast<std::int64_t>(__builtin_ia32_rdtsc()) - base_tsc;
+    if (wall_offset != nullptr) *wall_offset = wall;
+    __extension__ using Wide = __int128;  // ticks × a 32.32 rate: 64 bits overflow after ≈ 4 s
+    return base_ns + static_cast<std::int64_t>((static_cast<Wide>(ticks) * static_cast<Wide>(per_tick)) >> 32);
+  }
+}
+#endif
+
+}  // namespace detail
+
 inline MonoTime mono_now() noexcept {
+#if defined(__x86_64__)
+  if (detail::g_tsc_clock.active.load(std::memory_order_relaxed)) return MonoTime{detail::tsc_mono_ns()};
+#endif
   timespec ts{};
   clock_gettime(CLOCK_MONOTONIC, &ts);
   return MonoTime{static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec};
 }
 
 inline WallTime wall_now() noexcept {
+#if defined(__x86_64__)
+  if (detail::g_tsc_clock.active.load(std::memory_order_relaxed)) {
+    std::int64_t offset = 0;
+    const std::int64_t mono = detail::tsc_mono_ns(&offset);
+    return WallTime{mono + offset};
+  }
+#endif
   timespec ts{};
   clock_gettime(CLOCK_REALTIME, &ts);
   return WallTime{static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec};
@@ -40,5 +101,43 @@ inline WallTime wall_now() noexcept {
 inline timespec to_timespec(MonoTime t) noexcept {
   return timespec{static_cast<time_t>(t.ns / 1'000'000'000), static_cast<long>(t.ns % 1'000'000'000)};
 }
+
+// ---- Choosing the clock (set-up code, once per process) ---------------------------------------
+
+enum class ClockChoice {
+  automatic,  // the TSC clock where clock_gettime is slow (kSlowSystemClock) and the TSC fit
+  system,     // clock_gettime always
+  tsc,        // the TSC clock, or an error saying why it cannot be used here
+};
+
+struct ClockInfo {
+  bool tsc = false;               // mono_now / wall_now read the TSC clock
+  double system_read_ns = 0;      // one clock_gettime(CLOCK_MONOTONIC), the fastest of a few
+  double tsc_ghz = 0;             // the TSC's measured rate (0: not calibrated)
+  std::string why;                // one sentence: why this clock
+};
+
+// Beyond this a clock_gettime is a system call, not a vDSO read.
+inline constexpr double kSlowSystemClockNs = 1000;
+
+// Switches mono_now / wall_now to the TSC clock when `choice` asks for it (automatic: when a
+// clock_gettime takes ≥ kSlowSystemClockNs and the CPU has an invariant TSC), starting its
+// calibration thread (`pp-clock`, ≈ 0.1 ms of CPU per second). Call before any component
+// starts; a second call returns what the first chose.
+Result<ClockInfo> use_clock(ClockChoice choice);
+
+struct ClockStats {
+  bool tsc = false;
+  double tsc_ghz = 0;
+  std::uint64_t calibrations = 0;
+  std::uint64_t steps = 0;             // calibrations that found the TSC clock ≥ 1 ms off and reset it
+  std::int64_t last_error_ns = 0;      // CLOCK_MONOTONIC − the TSC clock at the last calibration
+  std::int64_t max_abs_error_ns = 0;   // the largest |last_error_ns| after the first second
+};
+ClockStats clock_stats() noexcept;
+
+// Stops the calibration thread and goes back to clock_gettime (tests only: a process that
+// switched keeps the TSC clock until it exits).
+void stop_tsc_clock_for_tests();
 
 }  // namespace polyport
