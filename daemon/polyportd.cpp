@@ -421,10 +421,12 @@ nlohmann::json collect_stats(const Engine& engine, const Options& options, std::
   stats["profiles"] = options.profiles;
   stats["run_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   const ClockStats clock = clock_stats();
-  stats["clock"] = {{"source", clock.tsc ? "tsc" : "system"}};
+  stats["clock"] = {{"source", clock.tsc && !clock.given_up ? "tsc" : "system"}};
   if (clock.tsc)
     stats["clock"].update({{"tsc_ghz", clock.tsc_ghz}, {"calibrations", clock.calibrations}, {"steps", clock.steps},
-                           {"last_error_ns", clock.last_error_ns}, {"max_abs_error_ns", clock.max_abs_error_ns}});
+                           {"skipped", clock.skipped}, {"last_error_ns", clock.last_error_ns},
+                           {"max_abs_error_ns", clock.max_abs_error_ns}});
+  if (clock.given_up) stats["clock"]["tsc_given_up"] = clock.why_given_up;
   return stats;
 }
 
@@ -657,6 +659,7 @@ int run_daemon(const Options& options) {
   daemon::ServiceNotifier systemd;  // under a Type=notify unit: READY, WATCHDOG, STOPPING
   systemd.ready("running " + options.profiles.front());
   int stop_signal = 0;
+  bool clock_given_up_logged = false;
   while (stop_signal == 0) {
     // Wake often enough to drain traces and ping systemd's watchdog; otherwise sleep until
     // the next summary. Admin requests and scrapes wake it at once (poll skips the fd of one
@@ -706,6 +709,12 @@ int run_daemon(const Options& options) {
       traces.drain(engine, [&](std::uint64_t client, std::string lines, bool last) {
         admin.send(client, std::move(lines), last);
       });
+    }
+    if (clock.value().tsc && !clock_given_up_logged) {
+      if (const ClockStats stats = clock_stats(); stats.given_up) {
+        spdlog::error("the TSC clock is given up, stamps come from clock_gettime again: {}", stats.why_given_up);
+        clock_given_up_logged = true;
+      }
     }
     const auto now = Clock::now();
     systemd.ping_if_due(now);

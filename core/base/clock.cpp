@@ -6,9 +6,13 @@
 #include <condition_variable>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <optional>
+#include <system_error>
 #include <thread>
+
+#include "polyport/base/tsc_discipline.hpp"
 
 #if defined(__x86_64__)
 #include <cpuid.h>
@@ -54,21 +58,15 @@ bool has_invariant_tsc() noexcept {
 
 // One CLOCK_MONOTONIC read paired with the TSC: the tightest bracket of a few tries, its
 // middle as the TSC at the read; and CLOCK_REALTIME's offset from it.
-struct Point {
-  std::int64_t tsc = 0;
-  std::int64_t mono_ns = 0;
-  std::int64_t wall_minus_mono_ns = 0;
-};
-
-Point sample() noexcept {
-  Point best;
-  std::int64_t best_bracket = std::numeric_limits<std::int64_t>::max();
+detail::TscPoint sample() noexcept {
+  detail::TscPoint best;
+  best.bracket = std::numeric_limits<std::int64_t>::max();
   for (int i = 0; i < 5; ++i) {
-    const auto before = static_cast<std::int64_t>(__builtin_ia32_rdtsc());
+    const std::int64_t before = detail::read_tsc();
     const std::int64_t mono = read_ns(CLOCK_MONOTONIC);
-    const auto after = static_cast<std::int64_t>(__builtin_ia32_rdtsc());
-    if (after - before < best_bracket) {
-      best_bracket = after - before;
+    const std::int64_t after = detail::read_tsc();
+    if (after - before < best.bracket) {
+      best.bracket = after - before;
       best.tsc = before + (after - before) / 2;
       best.mono_ns = mono;
     }
@@ -80,30 +78,19 @@ Point sample() noexcept {
   return best;
 }
 
-struct Scale {
-  std::int64_t base_tsc = 0;
-  std::int64_t base_mono_ns = 0;
-  std::int64_t wall_minus_mono_ns = 0;
-  double ns_per_tick = 0;
-};
-
-std::int64_t evaluate(const Scale& scale, std::int64_t tsc) noexcept {
-  return scale.base_mono_ns + std::llround(static_cast<double>(tsc - scale.base_tsc) * scale.ns_per_tick);
-}
-
 // The one writer of g_tsc_clock (see TscClock): the copy readers are not using is changed
-// first, then the other.
-void publish(const Scale& scale) noexcept {
+// first, then the other. The sequence moves before either copy changes (release: a reader
+// that sees a copy's new fields sees the sequence that sends it elsewhere).
+void publish(const detail::TscLine& line) noexcept {
   detail::TscClock& clock = detail::g_tsc_clock;
-  const auto q32 = static_cast<std::uint64_t>(std::llround(scale.ns_per_tick * 4294967296.0));
   const auto write = [&](detail::TscScale& copy) {
-    copy.base_tsc.store(scale.base_tsc, std::memory_order_relaxed);
-    copy.base_mono_ns.store(scale.base_mono_ns, std::memory_order_relaxed);
-    copy.wall_minus_mono_ns.store(scale.wall_minus_mono_ns, std::memory_order_relaxed);
-    copy.ns_per_tick_q32.store(q32, std::memory_order_relaxed);
+    copy.base_tsc.store(line.base_tsc, std::memory_order_relaxed);
+    copy.base_mono_ns.store(line.base_mono_ns, std::memory_order_relaxed);
+    copy.wall_minus_mono_ns.store(line.wall_minus_mono_ns, std::memory_order_relaxed);
+    copy.ns_per_tick_q32.store(line.per_tick_q32, std::memory_order_relaxed);
   };
   const std::uint32_t sequence = clock.sequence.load(std::memory_order_relaxed);
-  clock.sequence.store(sequence + 1, std::memory_order_relaxed);  // readers: the other copy
+  clock.sequence.store(sequence + 1, std::memory_order_release);  // readers: the other copy
   std::atomic_thread_fence(std::memory_order_release);
   write(clock.copies[sequence & 1U]);
   clock.sequence.store(sequence + 2, std::memory_order_release);  // readers: the new copy
@@ -111,28 +98,36 @@ void publish(const Scale& scale) noexcept {
   write(clock.copies[(sequence + 1) & 1U]);
 }
 
-// Keeps the TSC clock on CLOCK_MONOTONIC. The rate is measured over everything since the
-// start (its error shrinks as the baseline grows), and each calibration steers out the error
-// it finds over the next interval instead of stepping, so the clock stays continuous and
-// monotonic; an error of a millisecond or more (a paused machine, a TSC that is not what
-// CPUID says) resets it.
+// A child of fork() has no calibration thread: it goes back to clock_gettime.
+void tsc_clock_off_in_child() noexcept { detail::g_tsc_clock.active.store(false, std::memory_order_release); }
+
+// Runs TscDiscipline: a pair soon after the start, then more often as the baseline grows,
+// then every kInterval.
 class Calibrator {
  public:
-  static constexpr auto kInterval = std::chrono::milliseconds(250);
-  static constexpr auto kFirstBaseline = std::chrono::milliseconds(50);
-  static constexpr std::int64_t kStepNs = 1'000'000;
-  static constexpr double kMaxSteer = 200e-6;  // of the rate, per interval
+  static constexpr std::chrono::milliseconds kFirstBaseline{50};
+  static constexpr std::chrono::milliseconds kInterval{250};
 
-  double start() {
-    anchor_ = sample();
+  ~Calibrator() { stop(); }
+
+  // Measures the first rate, publishes the first line, starts the thread, then switches
+  // readers over; the TSC's rate in GHz.
+  Result<double> start() {
+    const detail::TscPoint anchor = sample();
     std::this_thread::sleep_for(kFirstBaseline);
-    const Point now = sample();
-    scale_ = Scale{now.tsc, now.mono_ns, now.wall_minus_mono_ns, rate_since_anchor(now)};
-    started_ = now.mono_ns;
-    publish(scale_);
+    Result<detail::TscLine> first = discipline_.begin(anchor, sample());
+    if (!first) return first.error();
+    started_ = first.value().base_mono_ns;
+    publish(first.value());
+    const double ghz = 1.0 / discipline_.ns_per_tick();
+    ghz_.store(ghz, std::memory_order_relaxed);
+    try {
+      thread_ = std::thread([this] { run(); });
+    } catch (const std::system_error& e) {
+      return make_error(std::string("cannot start the TSC clock's calibration thread: ") + e.what());
+    }
     detail::g_tsc_clock.active.store(true, std::memory_order_release);
-    thread_ = std::thread([this] { run(); });
-    return 1.0 / scale_.ns_per_tick;
+    return ghz;
   }
 
   void stop() {
@@ -144,62 +139,91 @@ class Calibrator {
     if (thread_.joinable()) thread_.join();
   }
 
-  ClockStats stats() const noexcept {
+  ClockStats stats() const {
     ClockStats out;
     out.tsc = true;
     out.tsc_ghz = ghz_.load(std::memory_order_relaxed);
     out.calibrations = calibrations_.load(std::memory_order_relaxed);
     out.steps = steps_.load(std::memory_order_relaxed);
+    out.skipped = skipped_.load(std::memory_order_relaxed);
     out.last_error_ns = last_error_.load(std::memory_order_relaxed);
     out.max_abs_error_ns = max_abs_error_.load(std::memory_order_relaxed);
+    std::lock_guard lock(mutex_);
+    out.given_up = !why_given_up_.empty();
+    out.why_given_up = why_given_up_;
     return out;
   }
 
  private:
-  double rate_since_anchor(const Point& now) const noexcept {
-    return static_cast<double>(now.mono_ns - anchor_.mono_ns) / static_cast<double>(now.tsc - anchor_.tsc);
-  }
-
   void run() {
     pthread_setname_np(pthread_self(), "pp-clock");
+    std::chrono::milliseconds interval = kFirstBaseline / 2;  // 50, 100, 200, 250, 250 ms…
     std::unique_lock lock(mutex_);
-    while (!wake_.wait_for(lock, kInterval, [this] { return stopping_; })) calibrate();
-  }
-
-  void calibrate() noexcept {
-    const Point now = sample();
-    const std::int64_t predicted = evaluate(scale_, now.tsc);
-    const std::int64_t error = now.mono_ns - predicted;
-    const double rate = rate_since_anchor(now);
-    if (std::llabs(error) >= kStepNs) {
-      scale_ = Scale{now.tsc, now.mono_ns, now.wall_minus_mono_ns, rate};
-      steps_.fetch_add(1, std::memory_order_relaxed);
-    } else {
-      const double interval_ticks = std::chrono::duration<double, std::nano>(kInterval).count() / rate;
-      const double steer = std::clamp(static_cast<double>(error) / interval_ticks, -kMaxSteer * rate, kMaxSteer * rate);
-      scale_ = Scale{now.tsc, predicted, now.wall_minus_mono_ns, rate + steer};
+    for (;;) {
+      interval = std::min(interval * 2, std::chrono::milliseconds(kInterval));
+      if (wake_.wait_for(lock, interval, [this] { return stopping_; })) return;
+      const detail::TscPoint now = sample();
+      Result<detail::TscDiscipline::Update> update =
+          discipline_.update(now, detail::read_tsc(), std::chrono::nanoseconds(interval).count());
+      if (!update) {
+        detail::g_tsc_clock.active.store(false, std::memory_order_release);
+        why_given_up_ = update.error().message;
+        return;
+      }
+      record(update.value(), now.mono_ns);
     }
-    publish(scale_);
-    ghz_.store(1.0 / rate, std::memory_order_relaxed);
-    calibrations_.fetch_add(1, std::memory_order_relaxed);
-    last_error_.store(error, std::memory_order_relaxed);
-    if (now.mono_ns - started_ >= 1'000'000'000 && std::llabs(error) > max_abs_error_.load(std::memory_order_relaxed))
-      max_abs_error_.store(std::llabs(error), std::memory_order_relaxed);
   }
 
-  Point anchor_;
-  Scale scale_;
+  void record(const detail::TscDiscipline::Update& update, std::int64_t now_ns) noexcept {
+    using Outcome = detail::TscDiscipline::Outcome;
+    if (update.outcome == Outcome::skipped) {
+      skipped_.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    publish(update.line);
+    if (update.outcome != Outcome::steered) steps_.fetch_add(1, std::memory_order_relaxed);
+    ghz_.store(1.0 / update.ns_per_tick, std::memory_order_relaxed);
+    calibrations_.fetch_add(1, std::memory_order_relaxed);
+    last_error_.store(update.error_ns, std::memory_order_relaxed);
+    if (now_ns - started_ >= 1'000'000'000 && std::llabs(update.error_ns) > max_abs_error_.load(std::memory_order_relaxed))
+      max_abs_error_.store(std::llabs(update.error_ns), std::memory_order_relaxed);
+  }
+
+  detail::TscDiscipline discipline_;  // the calibration thread's, after start()
   std::int64_t started_ = 0;
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   std::condition_variable wake_;
-  bool stopping_ = false;
+  bool stopping_ = false;       // mutex_
+  std::string why_given_up_;    // mutex_
   std::thread thread_;
   std::atomic<double> ghz_{0};
   std::atomic<std::uint64_t> calibrations_{0};
   std::atomic<std::uint64_t> steps_{0};
+  std::atomic<std::uint64_t> skipped_{0};
   std::atomic<std::int64_t> last_error_{0};
   std::atomic<std::int64_t> max_abs_error_{0};
 };
+
+// Whether the kernel set the TSC aside: it lists it as a clock source but uses another (it
+// found it unstable, or the administrator chose otherwise). A kernel that does not list it
+// at all (user-mode Linux: its clock is the host's) has no opinion.
+std::optional<std::string> kernel_passed_over_tsc() {
+  const auto read_line = [](const char* path) {
+    std::string text;
+    if (FILE* file = std::fopen(path, "r")) {
+      char buffer[256];
+      if (std::fgets(buffer, sizeof buffer, file) != nullptr) text = buffer;
+      std::fclose(file);
+    }
+    while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+    return text;
+  };
+  const std::string sysfs = "/sys/devices/system/clocksource/clocksource0/";
+  const std::string available = read_line((sysfs + "available_clocksource").c_str());
+  const std::string current = read_line((sysfs + "current_clocksource").c_str());
+  if (current == "tsc" || (" " + available + " ").find(" tsc ") == std::string::npos) return std::nullopt;
+  return current;
+}
 
 #endif  // __x86_64__
 
@@ -236,10 +260,26 @@ Result<ClockInfo> use_clock(ClockChoice choice) {
     g_choice = info;
     return info;
   }
-  auto* calibrator = new Calibrator();
+  if (choice == ClockChoice::automatic) {
+    if (const std::optional<std::string> current = kernel_passed_over_tsc()) {
+      info.why = cost + ", but the kernel keeps its time with " + *current + ", not the TSC it has";
+      g_choice = info;
+      return info;
+    }
+  }
+  auto calibrator = std::make_unique<Calibrator>();
+  Result<double> ghz = calibrator->start();
+  if (!ghz) {
+    if (choice == ClockChoice::tsc) return make_error("the TSC clock was asked for, but " + ghz.error().message);
+    info.why = cost + ", but the TSC is no clock here: " + ghz.error().message;
+    g_choice = info;
+    return info;
+  }
+  static const int at_fork = pthread_atfork(nullptr, nullptr, tsc_clock_off_in_child);
+  (void)at_fork;
+  g_calibrator = calibrator.release();
   info.tsc = true;
-  info.tsc_ghz = calibrator->start();
-  g_calibrator = calibrator;
+  info.tsc_ghz = ghz.value();
   info.why = cost + (choice == ClockChoice::tsc ? ", and the TSC clock was asked for" : " (a system call, no vDSO)");
   g_choice = info;
   return info;
@@ -251,7 +291,7 @@ Result<ClockInfo> use_clock(ClockChoice choice) {
 #endif
 }
 
-ClockStats clock_stats() noexcept {
+ClockStats clock_stats() {
 #if defined(__x86_64__)
   std::lock_guard lock(g_choice_mutex);
   if (g_calibrator != nullptr) return g_calibrator->stats();
@@ -264,7 +304,6 @@ void stop_tsc_clock_for_tests() {
 #if defined(__x86_64__)
   if (g_calibrator != nullptr) {
     detail::g_tsc_clock.active.store(false, std::memory_order_release);
-    g_calibrator->stop();
     delete g_calibrator;
     g_calibrator = nullptr;
   }

@@ -72,9 +72,16 @@ TEST_F(TscClock, StaysOnClockMonotonicAndRealtimeThroughItsCalibrations) {
   if (const std::string why = start_tsc(); !why.empty()) GTEST_SKIP() << why;
   std::int64_t worst = 0;
   std::int64_t worst_wall = 0;
-  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(1600);
+  // 1.6 s and five calibrations at least (fewer only on a machine too loaded to run them:
+  // then the bound below fails, and says so).
+  const auto start = std::chrono::steady_clock::now();
+  const auto enough = [&] {
+    const auto elapsed = std::chrono::steady_clock::now() - start;
+    if (elapsed > std::chrono::seconds(10)) return true;
+    return elapsed >= std::chrono::milliseconds(1600) && clock_stats().calibrations >= 5;
+  };
   int checks = 0;
-  while (std::chrono::steady_clock::now() < until) {
+  while (checks < 100 || !enough()) {
     const std::int64_t before = system_ns(CLOCK_MONOTONIC);
     const MonoTime now = mono_now();
     const std::int64_t after = system_ns(CLOCK_MONOTONIC);
@@ -91,12 +98,12 @@ TEST_F(TscClock, StaysOnClockMonotonicAndRealtimeThroughItsCalibrations) {
   }
   RecordProperty("worst_mono_error_ns", std::to_string(worst));
   RecordProperty("worst_wall_error_ns", std::to_string(worst_wall));
-  EXPECT_GT(checks, 100);
   EXPECT_LE(worst, kToleranceNs) << "the TSC clock left CLOCK_MONOTONIC by " << worst << " ns";
   EXPECT_LE(worst_wall, kToleranceNs) << "the TSC clock's wall time left CLOCK_REALTIME by " << worst_wall << " ns";
   const ClockStats stats = clock_stats();
   EXPECT_TRUE(stats.tsc);
-  EXPECT_GE(stats.calibrations, 5U);  // every 250 ms
+  EXPECT_FALSE(stats.given_up) << stats.why_given_up;
+  EXPECT_GE(stats.calibrations, 5U);  // 50, 100, 200 ms apart, then every 250 ms
   EXPECT_EQ(stats.steps, 0U);
   EXPECT_LE(std::llabs(stats.max_abs_error_ns), kToleranceNs);
 }

@@ -55,7 +55,19 @@ struct TscClock {
 };
 extern TscClock g_tsc_clock;  // clock.cpp
 
+// A line's value `ticks` after its base: ticks × a 32.32 rate in 128 bits (64 would overflow
+// after ≈ 2 s at 2–3 GHz). The calibration thread evaluates lines with this too, so that
+// where it joins a new line to the old one the two agree to the nanosecond.
+inline std::int64_t tsc_line_ns(std::int64_t base_ns, std::int64_t ticks, std::uint64_t per_tick_q32) noexcept {
+  __extension__ using Wide = __int128;
+  return base_ns + static_cast<std::int64_t>((static_cast<Wide>(ticks) * static_cast<Wide>(per_tick_q32)) >> 32);
+}
+
 #if defined(__x86_64__)
+// RDTSC is not ordered with the loads around it: a stamp may be taken some tens of cycles
+// early or late, well inside the calibration's own error; an LFENCE would cost more than that.
+inline std::int64_t read_tsc() noexcept { return static_cast<std::int64_t>(__builtin_ia32_rdtsc()); }
+
 inline std::int64_t tsc_mono_ns(std::int64_t* wall_offset = nullptr) noexcept {
   for (;;) {
     const std::uint32_t sequence = g_tsc_clock.sequence.load(std::memory_order_acquire);
@@ -66,10 +78,8 @@ inline std::int64_t tsc_mono_ns(std::int64_t* wall_offset = nullptr) noexcept {
     const std::int64_t wall = scale.wall_minus_mono_ns.load(std::memory_order_relaxed);
     std::atomic_thread_fence(std::memory_order_acquire);
     if (g_tsc_clock.sequence.load(std::memory_order_relaxed) != sequence) continue;
-    const auto ticks = static_cast<std::int64_t>(__builtin_ia32_rdtsc()) - base_tsc;
     if (wall_offset != nullptr) *wall_offset = wall;
-    __extension__ using Wide = __int128;  // ticks × a 32.32 rate: 64 bits overflow after ≈ 4 s
-    return base_ns + static_cast<std::int64_t>((static_cast<Wide>(ticks) * static_cast<Wide>(per_tick)) >> 32);
+    return tsc_line_ns(base_ns, read_tsc() - base_tsc, per_tick);
   }
 }
 #endif
@@ -78,7 +88,7 @@ inline std::int64_t tsc_mono_ns(std::int64_t* wall_offset = nullptr) noexcept {
 
 inline MonoTime mono_now() noexcept {
 #if defined(__x86_64__)
-  if (detail::g_tsc_clock.active.load(std::memory_order_relaxed)) return MonoTime{detail::tsc_mono_ns()};
+  if (detail::g_tsc_clock.active.load(std::memory_order_acquire)) return MonoTime{detail::tsc_mono_ns()};
 #endif
   timespec ts{};
   clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -87,7 +97,7 @@ inline MonoTime mono_now() noexcept {
 
 inline WallTime wall_now() noexcept {
 #if defined(__x86_64__)
-  if (detail::g_tsc_clock.active.load(std::memory_order_relaxed)) {
+  if (detail::g_tsc_clock.active.load(std::memory_order_acquire)) {
     std::int64_t offset = 0;
     const std::int64_t mono = detail::tsc_mono_ns(&offset);
     return WallTime{mono + offset};
@@ -121,7 +131,8 @@ struct ClockInfo {
 inline constexpr double kSlowSystemClockNs = 1000;
 
 // Switches mono_now / wall_now to the TSC clock when `choice` asks for it (automatic: when a
-// clock_gettime takes ≥ kSlowSystemClockNs and the CPU has an invariant TSC), starting its
+// clock_gettime takes ≥ kSlowSystemClockNs, the CPU has an invariant TSC and the kernel has
+// not set the TSC aside as a clock source), starting its
 // calibration thread (`pp-clock`, ≈ 0.1 ms of CPU per second). Call before any component
 // starts; a second call returns what the first chose.
 Result<ClockInfo> use_clock(ClockChoice choice);
@@ -130,11 +141,14 @@ struct ClockStats {
   bool tsc = false;
   double tsc_ghz = 0;
   std::uint64_t calibrations = 0;
-  std::uint64_t steps = 0;             // calibrations that found the TSC clock ≥ 1 ms off and reset it
+  std::uint64_t steps = 0;             // calibrations that found it ≥ 1 ms off: stepped ahead or slewed back
   std::int64_t last_error_ns = 0;      // CLOCK_MONOTONIC − the TSC clock at the last calibration
   std::int64_t max_abs_error_ns = 0;   // the largest |last_error_ns| after the first second
+  std::uint64_t skipped = 0;           // calibrations skipped: their clock read was held up (preempted)
+  bool given_up = false;               // the TSC misbehaved (went back, changed rate): clock_gettime again
+  std::string why_given_up;            // what it did
 };
-ClockStats clock_stats() noexcept;
+ClockStats clock_stats();
 
 // Stops the calibration thread and goes back to clock_gettime (tests only: a process that
 // switched keeps the TSC clock until it exits).
