@@ -80,22 +80,27 @@ detail::TscPoint sample() noexcept {
 
 // The one writer of g_tsc_clock (see TscClock): the copy readers are not using is changed
 // first, then the other. The sequence moves before either copy changes (release: a reader
-// that sees a copy's new fields sees the sequence that sends it elsewhere).
-void publish(const detail::TscLine& line) noexcept {
+// that sees a copy's new fields sees the sequence that sends it elsewhere). Readers that
+// read the TSC before the sequence sends them to the new line read the old one: the new
+// line is joined to the old at a TSC read after that (TscDiscipline::rejoin), so no reader
+// finds it below a value the old one gave. Returns the line written.
+detail::TscLine publish(const detail::TscLine& published, const detail::TscLine& line) noexcept {
   detail::TscClock& clock = detail::g_tsc_clock;
-  const auto write = [&](detail::TscScale& copy) {
-    copy.base_tsc.store(line.base_tsc, std::memory_order_relaxed);
-    copy.base_mono_ns.store(line.base_mono_ns, std::memory_order_relaxed);
-    copy.wall_minus_mono_ns.store(line.wall_minus_mono_ns, std::memory_order_relaxed);
-    copy.ns_per_tick_q32.store(line.per_tick_q32, std::memory_order_relaxed);
+  const auto write = [](detail::TscScale& copy, const detail::TscLine& value) {
+    copy.base_tsc.store(value.base_tsc, std::memory_order_relaxed);
+    copy.base_mono_ns.store(value.base_mono_ns, std::memory_order_relaxed);
+    copy.wall_minus_mono_ns.store(value.wall_minus_mono_ns, std::memory_order_relaxed);
+    copy.ns_per_tick_q32.store(value.per_tick_q32, std::memory_order_relaxed);
   };
   const std::uint32_t sequence = clock.sequence.load(std::memory_order_relaxed);
   clock.sequence.store(sequence + 1, std::memory_order_release);  // readers: the other copy
   std::atomic_thread_fence(std::memory_order_release);
-  write(clock.copies[sequence & 1U]);
+  const detail::TscLine joined = detail::TscDiscipline::rejoin(published, line, detail::read_tsc());
+  write(clock.copies[sequence & 1U], joined);
   clock.sequence.store(sequence + 2, std::memory_order_release);  // readers: the new copy
   std::atomic_thread_fence(std::memory_order_release);
-  write(clock.copies[(sequence + 1) & 1U]);
+  write(clock.copies[(sequence + 1) & 1U], joined);
+  return joined;
 }
 
 // A child of fork() has no calibration thread: it goes back to clock_gettime.
@@ -118,7 +123,7 @@ class Calibrator {
     Result<detail::TscLine> first = discipline_.begin(anchor, sample());
     if (!first) return first.error();
     started_ = first.value().base_mono_ns;
-    publish(first.value());
+    published_ = publish(first.value(), first.value());
     const double ghz = 1.0 / discipline_.ns_per_tick();
     ghz_.store(ghz, std::memory_order_relaxed);
     try {
@@ -162,16 +167,28 @@ class Calibrator {
     for (;;) {
       interval = std::min(interval * 2, std::chrono::milliseconds(kInterval));
       if (wake_.wait_for(lock, interval, [this] { return stopping_; })) return;
+      const auto next = std::min(interval * 2, std::chrono::milliseconds(kInterval));
       const detail::TscPoint now = sample();
       Result<detail::TscDiscipline::Update> update =
-          discipline_.update(now, detail::read_tsc(), std::chrono::nanoseconds(interval).count());
+          discipline_.update(now, detail::read_tsc(), std::chrono::nanoseconds(next).count());
       if (!update) {
-        detail::g_tsc_clock.active.store(false, std::memory_order_release);
-        why_given_up_ = update.error().message;
+        give_up(lock, update.error().message);
         return;
       }
+      published_ = publish(published_, update.value().line);
+      discipline_.adopt(published_);
       record(update.value(), now.mono_ns);
     }
+  }
+
+  // Back to clock_gettime, once it has caught up with the TSC clock (when that is ahead, as
+  // while slewing back: readers must not see time go back at the switch).
+  void give_up(std::unique_lock<std::mutex>& lock, const std::string& why) {
+    const std::int64_t lead = published_.at(detail::read_tsc()) - read_ns(CLOCK_MONOTONIC);
+    if (lead > 0 && lead < 1'000'000'000)
+      wake_.wait_for(lock, std::chrono::nanoseconds(lead), [this] { return stopping_; });
+    detail::g_tsc_clock.active.store(false, std::memory_order_release);
+    why_given_up_ = why;
   }
 
   void record(const detail::TscDiscipline::Update& update, std::int64_t now_ns) noexcept {
@@ -180,7 +197,6 @@ class Calibrator {
       skipped_.fetch_add(1, std::memory_order_relaxed);
       return;
     }
-    publish(update.line);
     if (update.outcome != Outcome::steered) steps_.fetch_add(1, std::memory_order_relaxed);
     ghz_.store(1.0 / update.ns_per_tick, std::memory_order_relaxed);
     calibrations_.fetch_add(1, std::memory_order_relaxed);
@@ -190,6 +206,7 @@ class Calibrator {
   }
 
   detail::TscDiscipline discipline_;  // the calibration thread's, after start()
+  detail::TscLine published_;         // the line readers use; likewise
   std::int64_t started_ = 0;
   mutable std::mutex mutex_;
   std::condition_variable wake_;
@@ -204,24 +221,24 @@ class Calibrator {
   std::atomic<std::int64_t> max_abs_error_{0};
 };
 
-// Whether the kernel set the TSC aside: it lists it as a clock source but uses another (it
-// found it unstable, or the administrator chose otherwise). A kernel that does not list it
-// at all (user-mode Linux: its clock is the host's) has no opinion.
-std::optional<std::string> kernel_passed_over_tsc() {
-  const auto read_line = [](const char* path) {
+// Whether the kernel keeps its own time with something other than the TSC: it found the TSC
+// unstable (it then drops it from available_clocksource), or the administrator chose another
+// source, or a hypervisor's is preferred; the TSC clock is not taken for `auto` then. The
+// clock of user-mode Linux is the host's (its kernel lists only its `timer`): no opinion.
+std::optional<std::string> kernel_keeps_time_without_tsc() {
+  const auto read_text = [](const char* path, std::size_t lines) {
     std::string text;
     if (FILE* file = std::fopen(path, "r")) {
       char buffer[256];
-      if (std::fgets(buffer, sizeof buffer, file) != nullptr) text = buffer;
+      for (std::size_t i = 0; i < lines && std::fgets(buffer, sizeof buffer, file) != nullptr; ++i) text += buffer;
       std::fclose(file);
     }
     while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
     return text;
   };
-  const std::string sysfs = "/sys/devices/system/clocksource/clocksource0/";
-  const std::string available = read_line((sysfs + "available_clocksource").c_str());
-  const std::string current = read_line((sysfs + "current_clocksource").c_str());
-  if (current == "tsc" || (" " + available + " ").find(" tsc ") == std::string::npos) return std::nullopt;
+  if (read_text("/proc/cpuinfo", 8).find("User Mode Linux") != std::string::npos) return std::nullopt;
+  const std::string current = read_text("/sys/devices/system/clocksource/clocksource0/current_clocksource", 1);
+  if (current.empty() || current == "tsc") return std::nullopt;
   return current;
 }
 
@@ -261,8 +278,8 @@ Result<ClockInfo> use_clock(ClockChoice choice) {
     return info;
   }
   if (choice == ClockChoice::automatic) {
-    if (const std::optional<std::string> current = kernel_passed_over_tsc()) {
-      info.why = cost + ", but the kernel keeps its time with " + *current + ", not the TSC it has";
+    if (const std::optional<std::string> current = kernel_keeps_time_without_tsc()) {
+      info.why = cost + ", but the kernel keeps its time with " + *current + ", not the TSC";
       g_choice = info;
       return info;
     }

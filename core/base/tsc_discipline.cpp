@@ -33,7 +33,6 @@ Result<TscLine> TscDiscipline::begin(const TscPoint& anchor, const TscPoint& now
   remember(now);
   last_ = now;
   first_rate_ = rate_ = rate;
-  tightest_bracket_ = std::min(anchor.bracket, now.bracket);
   skips_in_a_row_ = 0;
   line_ = TscLine{now.tsc, now.mono_ns, now.wall_minus_mono_ns, q32(rate)};
   return line_;
@@ -51,19 +50,25 @@ void TscDiscipline::remember(const TscPoint& pair) noexcept {
 
 Result<TscDiscipline::Update> TscDiscipline::update(const TscPoint& now, std::int64_t publish_tsc,
                                                     std::int64_t interval_ns) {
-  if (now.tsc <= last_.tsc || publish_tsc < now.tsc)
+  if (now.tsc <= last_.tsc)
     return make_error("the TSC went back (" + std::to_string(now.tsc) + " after " + std::to_string(last_.tsc) + ")");
+  // Read on another CPU a moment later, the publishing TSC may lag the pair's by a few ticks.
+  publish_tsc = std::max(publish_tsc, now.tsc);
   Update out;
   out.error_ns = now.mono_ns - line_.at(now.tsc);
+  out.ns_per_tick = rate_;
   const bool discontinuity = std::llabs(out.error_ns) >= kStepNs;
 
   // A pair read while the thread was held up says little; a run of them is the new normal.
-  if (tightest_bracket_ <= 0 || now.bracket < tightest_bracket_) tightest_bracket_ = now.bracket;
-  if (now.bracket > kWideBracket * tightest_bracket_ && skips_in_a_row_ < kMaxSkipsInARow) {
+  // The line goes on at the measured rate: a correction sized for one interval, or a slew,
+  // must not run on for several.
+  std::int64_t tightest = now.bracket;
+  for (std::size_t i = 0; i < window_size_; ++i) tightest = std::min(tightest, window_[i].bracket);
+  if (now.bracket > kWideBracket * tightest && skips_in_a_row_ < kMaxSkipsInARow) {
     ++skips_in_a_row_;
+    line_ = TscLine{publish_tsc, line_.at(publish_tsc), line_.wall_minus_mono_ns, q32(rate_)};
     out.outcome = Outcome::skipped;
     out.line = line_;
-    out.ns_per_tick = rate_;
     return out;
   }
   skips_in_a_row_ = 0;
@@ -104,6 +109,12 @@ Result<TscDiscipline::Update> TscDiscipline::update(const TscPoint& now, std::in
   line_ = TscLine{publish_tsc, joined_ns, now.wall_minus_mono_ns, q32(rate_ + steer)};
   out.line = line_;
   return out;
+}
+
+TscLine TscDiscipline::rejoin(const TscLine& published, const TscLine& line, std::int64_t switch_tsc) noexcept {
+  const std::int64_t old_ns = published.at(switch_tsc);
+  if (line.at(switch_tsc) >= old_ns) return line;
+  return TscLine{switch_tsc, old_ns, line.wall_minus_mono_ns, line.per_tick_q32};
 }
 
 }  // namespace polyport::detail

@@ -52,7 +52,7 @@ class Driven {
     Result<TscDiscipline::Update> update = discipline_.update(machine_.pair(bracket, held_up_ns), publish, kInterval);
     EXPECT_TRUE(update) << update.error().message;
     if (!update) return {};
-    if (update.value().outcome != TscDiscipline::Outcome::skipped) {
+    {
       const TscLine& line = update.value().line;
       EXPECT_GE(line.at(publish), published_.at(publish)) << "the clock went back where the new line took over";
       if (update.value().outcome != TscDiscipline::Outcome::stepped) {
@@ -138,6 +138,35 @@ TEST(TscDiscipline, SlewsBackRatherThanStepBackWhenFarAhead) {
   EXPECT_EQ(slewed, 2);
   for (int i = 0; i < 20; ++i) EXPECT_EQ(driven.next().outcome, TscDiscipline::Outcome::steered);
   EXPECT_LT(std::llabs(driven.error_ns()), 1'000);
+}
+
+TEST(TscDiscipline, AWriterHeldUpBeforePublishingDoesNotSetTheClockBack) {
+  Machine machine;
+  TscDiscipline discipline;
+  const TscPoint anchor = machine.pair();
+  machine.run(50'000'000);
+  ASSERT_TRUE(discipline.begin(anchor, machine.pair()));
+  const TscLine published = discipline.line();
+  machine.run(kInterval);
+  machine.mono_ns -= 40e6;  // far ahead: the new line runs 10 % slow
+  const std::int64_t publish = machine.publish_tsc();
+  Result<TscDiscipline::Update> update = discipline.update(machine.pair(), publish, kInterval);
+  ASSERT_TRUE(update);
+  ASSERT_EQ(update.value().outcome, TscDiscipline::Outcome::slewed);
+  const TscLine& slower = update.value().line;
+  // Readers keep the old line until the writer switches them, 10 ms late here (preempted):
+  // the slower line as computed would be 1 ms below what they last read; joined again at
+  // the switch, it is not.
+  const std::int64_t switched = publish + std::llround(10e6 * kTicksPerNs);
+  EXPECT_LT(slower.at(switched), published.at(switched) - 900'000);
+  const TscLine joined = TscDiscipline::rejoin(published, slower, switched);
+  EXPECT_EQ(joined.at(switched), published.at(switched));
+  EXPECT_EQ(joined.per_tick_q32, slower.per_tick_q32);
+  EXPECT_GT(joined.at(switched + 1000), published.at(switched));
+  // A line that is not below the old one at the switch is written as it is.
+  const TscLine same = TscDiscipline::rejoin(published, slower, publish);
+  EXPECT_EQ(same.base_tsc, slower.base_tsc);
+  EXPECT_EQ(same.base_mono_ns, slower.base_mono_ns);
 }
 
 TEST(TscDiscipline, SkipsAPreemptedPairUnlessItKeepsHappening) {

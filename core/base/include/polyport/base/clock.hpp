@@ -76,10 +76,13 @@ inline std::int64_t tsc_mono_ns(std::int64_t* wall_offset = nullptr) noexcept {
     const std::int64_t base_ns = scale.base_mono_ns.load(std::memory_order_relaxed);
     const std::uint64_t per_tick = scale.ns_per_tick_q32.load(std::memory_order_relaxed);
     const std::int64_t wall = scale.wall_minus_mono_ns.load(std::memory_order_relaxed);
+    // The TSC is read before the sequence is checked again: a value from this copy's line is
+    // for a moment when the line was still the published one (see publish in clock.cpp).
+    const std::int64_t tsc = read_tsc();
     std::atomic_thread_fence(std::memory_order_acquire);
     if (g_tsc_clock.sequence.load(std::memory_order_relaxed) != sequence) continue;
     if (wall_offset != nullptr) *wall_offset = wall;
-    return tsc_line_ns(base_ns, read_tsc() - base_tsc, per_tick);
+    return tsc_line_ns(base_ns, tsc - base_tsc, per_tick);
   }
 }
 #endif
@@ -131,8 +134,8 @@ struct ClockInfo {
 inline constexpr double kSlowSystemClockNs = 1000;
 
 // Switches mono_now / wall_now to the TSC clock when `choice` asks for it (automatic: when a
-// clock_gettime takes ≥ kSlowSystemClockNs, the CPU has an invariant TSC and the kernel has
-// not set the TSC aside as a clock source), starting its
+// clock_gettime takes ≥ kSlowSystemClockNs, the CPU has an invariant TSC and the kernel does
+// not keep its own time with another clock source), starting its
 // calibration thread (`pp-clock`, ≈ 0.1 ms of CPU per second). Call before any component
 // starts; a second call returns what the first chose.
 Result<ClockInfo> use_clock(ClockChoice choice);

@@ -9,13 +9,16 @@
 //   clock when NTP changes its frequency.
 // - Each new line starts where the published one stands at the moment it is published, and
 //   is steered (at most kMaxSteer of the rate) to remove the error found over the next
-//   interval: readers see a continuous clock that never goes back.
+//   interval: readers see a continuous clock that never goes back. The writer joins it once
+//   more at a TSC read after readers were sent to the other copy (rejoin), so that a writer
+//   held up between update and publish cannot leave a slower line below the old one.
 // - An error of kStepNs or more is a discontinuity (a paused machine, a TSC that is not
 //   what CPUID says). Behind: the clock steps ahead. Ahead: it slews back, running up to
 //   kMaxSlew slower, since stepping back would make time go backwards. Either way the
 //   window starts anew, and the rate is not measured across it.
-// - A pair whose clock read was held up (its TSC bracket far wider than the tightest seen,
-//   the calibration thread was preempted) is skipped, unless that keeps happening.
+// - A pair whose clock read was held up (its TSC bracket far wider than the tightest of the
+//   window, the calibration thread was preempted) is skipped, unless that keeps happening;
+//   the line then goes on at the measured rate, without a correction meant for one interval.
 // - A TSC that goes back, or whose rate moves by more than kMaxRateChange, is not a clock:
 //   the discipline fails and the process goes back to clock_gettime.
 #pragma once
@@ -69,9 +72,15 @@ class TscDiscipline {
   Result<TscLine> begin(const TscPoint& anchor, const TscPoint& now);
 
   // The line to publish after `now`, joined to the published line at `publish_tsc` (a TSC
-  // read just before publishing, ≥ now.tsc) and steered to be right `interval_ns` later.
-  // An error when the TSC stopped being a clock.
+  // read just before publishing) and steered to be right `interval_ns` later (the time until
+  // the next update). An error when the TSC stopped being a clock.
   Result<Update> update(const TscPoint& now, std::int64_t publish_tsc, std::int64_t interval_ns);
+
+  // `line` as the writer stores it once readers are off the copy, at `switch_tsc` read then:
+  // joined again to `published` there if it would start below it. The discipline goes on
+  // from the line actually published (adopt).
+  static TscLine rejoin(const TscLine& published, const TscLine& line, std::int64_t switch_tsc) noexcept;
+  void adopt(const TscLine& published) noexcept { line_ = published; }
 
   const TscLine& line() const noexcept { return line_; }
   double ns_per_tick() const noexcept { return rate_; }
@@ -86,7 +95,6 @@ class TscDiscipline {
   TscPoint last_;
   double first_rate_ = 0;
   double rate_ = 0;
-  std::int64_t tightest_bracket_ = 0;
   int skips_in_a_row_ = 0;
 };
 
