@@ -27,18 +27,12 @@ TscClock g_tsc_clock;
 
 namespace {
 
-std::int64_t read_ns(clockid_t id) noexcept {
-  timespec ts{};
-  clock_gettime(id, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
 // The fastest of a few back-to-back CLOCK_MONOTONIC reads: what one read costs.
 double system_read_ns() noexcept {
   std::int64_t best = std::numeric_limits<std::int64_t>::max();
-  std::int64_t previous = read_ns(CLOCK_MONOTONIC);
+  std::int64_t previous = detail::system_ns(CLOCK_MONOTONIC);
   for (int i = 0; i < 16; ++i) {
-    const std::int64_t now = read_ns(CLOCK_MONOTONIC);
+    const std::int64_t now = detail::system_ns(CLOCK_MONOTONIC);
     best = std::min(best, now - previous);
     previous = now;
   }
@@ -63,7 +57,7 @@ detail::TscPoint sample() noexcept {
   best.bracket = std::numeric_limits<std::int64_t>::max();
   for (int i = 0; i < 5; ++i) {
     const std::int64_t before = detail::read_tsc();
-    const std::int64_t mono = read_ns(CLOCK_MONOTONIC);
+    const std::int64_t mono = detail::system_ns(CLOCK_MONOTONIC);
     const std::int64_t after = detail::read_tsc();
     if (after - before < best.bracket) {
       best.bracket = after - before;
@@ -71,9 +65,9 @@ detail::TscPoint sample() noexcept {
       best.mono_ns = mono;
     }
   }
-  const std::int64_t mono_before = read_ns(CLOCK_MONOTONIC);
-  const std::int64_t wall = read_ns(CLOCK_REALTIME);
-  const std::int64_t mono_after = read_ns(CLOCK_MONOTONIC);
+  const std::int64_t mono_before = detail::system_ns(CLOCK_MONOTONIC);
+  const std::int64_t wall = detail::system_ns(CLOCK_REALTIME);
+  const std::int64_t mono_after = detail::system_ns(CLOCK_MONOTONIC);
   best.wall_minus_mono_ns = wall - (mono_before + (mono_after - mono_before) / 2);
   return best;
 }
@@ -106,8 +100,7 @@ detail::TscLine publish(const detail::TscLine& published, const detail::TscLine&
 // A child of fork() has no calibration thread: it goes back to clock_gettime.
 void tsc_clock_off_in_child() noexcept { detail::g_tsc_clock.active.store(false, std::memory_order_release); }
 
-// Runs TscDiscipline: a pair soon after the start, then more often as the baseline grows,
-// then every kInterval.
+// Runs TscDiscipline: a pair 50, 100 and 200 ms after the last, then every kInterval.
 class Calibrator {
  public:
   static constexpr std::chrono::milliseconds kFirstBaseline{50};
@@ -162,12 +155,11 @@ class Calibrator {
  private:
   void run() {
     pthread_setname_np(pthread_self(), "pp-clock");
-    std::chrono::milliseconds interval = kFirstBaseline / 2;  // 50, 100, 200, 250, 250 ms…
+    const auto after = [](std::chrono::milliseconds interval) { return std::min(interval * 2, kInterval); };
     std::unique_lock lock(mutex_);
-    for (;;) {
-      interval = std::min(interval * 2, std::chrono::milliseconds(kInterval));
+    for (std::chrono::milliseconds interval = kFirstBaseline;; interval = after(interval)) {
       if (wake_.wait_for(lock, interval, [this] { return stopping_; })) return;
-      const auto next = std::min(interval * 2, std::chrono::milliseconds(kInterval));
+      const std::chrono::milliseconds next = after(interval);
       const detail::TscPoint now = sample();
       Result<detail::TscDiscipline::Update> update =
           discipline_.update(now, detail::read_tsc(), std::chrono::nanoseconds(next).count());
@@ -184,7 +176,7 @@ class Calibrator {
   // Back to clock_gettime, once it has caught up with the TSC clock (when that is ahead, as
   // while slewing back: readers must not see time go back at the switch).
   void give_up(std::unique_lock<std::mutex>& lock, const std::string& why) {
-    const std::int64_t lead = published_.at(detail::read_tsc()) - read_ns(CLOCK_MONOTONIC);
+    const std::int64_t lead = published_.at(detail::read_tsc()) - detail::system_ns(CLOCK_MONOTONIC);
     if (lead > 0 && lead < 1'000'000'000)
       wake_.wait_for(lock, std::chrono::nanoseconds(lead), [this] { return stopping_; });
     detail::g_tsc_clock.active.store(false, std::memory_order_release);

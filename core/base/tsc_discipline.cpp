@@ -102,10 +102,11 @@ Result<TscDiscipline::Update> TscDiscipline::update(const TscPoint& now, std::in
   }
   // Steer out the error at the join over the next interval, within kMaxSteer of the rate (or
   // kMaxSlew, running slower, while far ahead).
+  const bool far_ahead = out.error_ns <= -kStepNs;
   const double behind_ns = static_cast<double>(mono_at_publish - joined_ns);
-  const double slower = out.error_ns <= -kStepNs ? kMaxSlew : kMaxSteer;
+  const double slower = far_ahead ? kMaxSlew : kMaxSteer;
   const double steer = std::clamp(behind_ns / interval_ticks, -slower * rate_, kMaxSteer * rate_);
-  out.outcome = out.error_ns <= -kStepNs ? Outcome::slewed : Outcome::steered;
+  out.outcome = far_ahead ? Outcome::slewed : Outcome::steered;
   line_ = TscLine{publish_tsc, joined_ns, now.wall_minus_mono_ns, q32(rate_ + steer)};
   out.line = line_;
   return out;

@@ -55,6 +55,13 @@ struct TscClock {
 };
 extern TscClock g_tsc_clock;  // clock.cpp
 
+// A system clock in nanoseconds (clock_gettime).
+inline std::int64_t system_ns(clockid_t id) noexcept {
+  timespec ts{};
+  clock_gettime(id, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
 // A line's value `ticks` after its base: ticks × a 32.32 rate in 128 bits (64 would overflow
 // after ≈ 2 s at 2–3 GHz). The calibration thread evaluates lines with this too, so that
 // where it joins a new line to the old one the two agree to the nanosecond.
@@ -93,9 +100,7 @@ inline MonoTime mono_now() noexcept {
 #if defined(__x86_64__)
   if (detail::g_tsc_clock.active.load(std::memory_order_acquire)) return MonoTime{detail::tsc_mono_ns()};
 #endif
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return MonoTime{static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec};
+  return MonoTime{detail::system_ns(CLOCK_MONOTONIC)};
 }
 
 inline WallTime wall_now() noexcept {
@@ -106,9 +111,7 @@ inline WallTime wall_now() noexcept {
     return WallTime{mono + offset};
   }
 #endif
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return WallTime{static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec};
+  return WallTime{detail::system_ns(CLOCK_REALTIME)};
 }
 
 inline timespec to_timespec(MonoTime t) noexcept {
