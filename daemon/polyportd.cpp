@@ -292,6 +292,7 @@ void print_graph(const nlohmann::json& graph, std::ostream& out) {
   for (const auto& e : graph["execution_contexts"]) {
     out << "  " << e.value("name", "") << "  period=" << e.value("period_ns", 0) / 1e6 << " ms";
     if (e.value("spin_us", 0) > 0) out << "  spin=" << e.value("spin_us", 0) << " us";
+    if (e.contains("phase_ns") && e["phase_ns"].is_number()) out << "  phase=" << e["phase_ns"].get<double>() / 1e6 << " ms";
     if (e.contains("priority")) out << "  " << e.value("policy", "") << " priority=" << e.value("priority", 0);
     out << "  members:";
     for (const auto& m : e["members"]) out << " " << m.get<std::string>();

@@ -6,8 +6,9 @@
 # vcan), then those meant for the host (no CAN, no simulator), then writes
 # benchmarks/results/wheelchair-<UTC stamp>.{json,md} and the -steering / -latency PNGs.
 #
-#   scripts/bench_wheelchair.sh [--duration S] [--only native_a,mixed] [--scenario "..."]
+#   scripts/bench_wheelchair.sh [--duration S] [--repeat N] [--only native_a,mixed] [--scenario "..."]
 #     --duration S   seconds of scenario per configuration (default 12: 1200 periods)
+#     --repeat N     run the configurations N times, interleaved (default 1)
 #     --only NAMES   some configurations (default: all)
 #     --scenario T   the simulator's stick ("time_s:angle_deg:magnitude; ...")
 # Environment: POLYPORT_BUILD_DIR (default build), POLYPORT_JOBS (2), POLYPORT_WHEELCHAIR_RUN_DIR
@@ -30,8 +31,16 @@ else
   run_dir="$(mktemp -d /tmp/polyport-wheelchair.XXXXXX)"
   trap 'rm -rf "$run_dir"' EXIT
 fi
+# The guest's watchdog: 900 s a round (five configurations of 12 s take about 90 s).
+repeat=1
+previous=""
+for arg in "$@"; do
+  [ "$previous" != --repeat ] || repeat=$arg
+  previous=$arg
+done
+[[ "$repeat" =~ ^[1-9][0-9]*$ ]] || { echo "bench_wheelchair.sh: --repeat $repeat: expected 1 or more" >&2; exit 2; }
 rc=0
-scripts/vcan-run --timeout 900 --rw "$run_dir" -- \
+scripts/vcan-run --timeout $((900 * repeat)) --rw "$run_dir" -- \
   /usr/bin/python3 benchmarks/wheelchair/run_configs.py --out "$run_dir" --bin "$(cd "$build/bin" && pwd)" "$@" || rc=$?
 # The configurations meant for the host (no CAN: their Joystick -> Control hop where clocks
 # are cheap), into the same run folder.

@@ -2,13 +2,20 @@
 """Runs the wheelchair suite's configurations, one after the other, where vcan0 exists (in
 the vcan guest: scripts/bench_wheelchair.sh starts it). For each configuration it starts
 polyportd and the configuration's programs, waits until each says it runs, then runs the
-bus simulator for the scenario, stops everything and keeps what each wrote:
+bus simulator for the scenario, stops everything and keeps what each wrote. With --repeat N
+the configurations run N times, interleaved (all of them, then all of them again), so that
+each repetition of one configuration has its neighbours' conditions; repetition K of a
+configuration writes
 
-  OUT/<config>/sim_trace.csv, sim.json     the simulator's trace and figures
-  OUT/<config>/<process>.json              each program's summary
-  OUT/<config>/polyportd.json              polyportd's statistics (--stats-json)
-  OUT/<config>/cpu.json                    CPU seconds of every process (from /proc)
-  OUT/<config>/*.log                       their stderr
+  OUT/<config>/<K>/sim_trace.csv, sim.json     the simulator's trace and figures
+  OUT/<config>/<K>/<process>.json              each program's summary
+  OUT/<config>/<K>/polyportd.json              polyportd's statistics (--stats-json)
+  OUT/<config>/<K>/cpu.json                    CPU seconds of every process (from /proc)
+  OUT/<config>/<K>/*.log                       their stderr
+
+Every periodic loop runs on a grid of CLOCK_MONOTONIC at the phase the configuration gives
+it (the programs' --phase-ms, the profiles' <phase>; the simulator at phase 0), so that the
+loops' order in the period is the same in every run and configuration.
 
 report.py turns a run folder into the JSON, the table and the plots. Exit status 0 when every
 configuration produced a full trace; 1 otherwise (the failing step is printed)."""
@@ -72,10 +79,9 @@ class Process:
             return "".join(f.readlines()[-lines:])
 
 
-def start(name, config, args, out_dir, started):
+def start(name, config, args, folder, started):
     """Starts the configuration's programs and polyportd, each once it says it runs; appends
     them to `started`. False (with the reason printed) when one did not come up."""
-    folder = os.path.join(out_dir, name)
     os.makedirs(folder, exist_ok=True)
     env = dict(os.environ)
     env.setdefault("CYCLONEDDS_URI", "file://" + os.path.join(ROOT, "config", "cyclonedds-loopback.xml"))
@@ -101,8 +107,8 @@ def start(name, config, args, out_dir, started):
     return True
 
 
-def record_cpu(name, out_dir, started):
-    with open(os.path.join(out_dir, name, "cpu.json"), "w") as f:
+def record_cpu(folder, started):
+    with open(os.path.join(folder, "cpu.json"), "w") as f:
         json.dump({p.name: cpu_seconds(p.popen.pid) for p in started}, f)
 
 
@@ -116,16 +122,16 @@ def stop(name, started):
     return ok
 
 
-def run_config(name, config, args, out_dir):
+def run_config(name, config, args, folder):
     """A guest configuration: its programs against the bus simulator for the scenario."""
     started = []
     ok = False
     try:
-        if not start(name, config, args, out_dir, started):
+        if not start(name, config, args, folder, started):
             return False
         progress(f"{name}: {', '.join(p.name for p in started)} up; simulator runs {args.duration} s")
-        folder = os.path.join(out_dir, name)
         sim_argv = [os.path.join(args.bin, "wheelchair_sim"), "--if", args.interface, "--duration-s", str(args.duration),
+                    "--phase-ms", "0",
                     "--trace", os.path.join(folder, "sim_trace.csv"), "--summary", os.path.join(folder, "sim.json")]
         if args.scenario:
             sim_argv += ["--scenario", args.scenario]
@@ -139,32 +145,36 @@ def run_config(name, config, args, out_dir):
         ok = status == 0
         if not ok:
             progress(f"{name}: simulator failed ({status}):\n{sim.tail()}")
-        record_cpu(name, out_dir, started)
+        record_cpu(folder, started)
     finally:
         ok = stop(name, started) and ok
     progress(f"{name}: {'done' if ok else 'FAILED'}")
     return ok
 
 
-def run_together(names, configurations, args, out_dir):
+def run_together(names, configurations, args, out_dir, repetition):
     """Host configurations: all at once (each on DDS domains of its own), so that they share
     the machine's load, for the duration; no simulator. Returns the names that failed."""
     started = {n: [] for n in names}
     up = []
     try:
         for n in names:
-            if start(n, configurations[n], args, out_dir, started[n]):
+            if start(n, configurations[n], args, folder_of(out_dir, n, repetition), started[n]):
                 up.append(n)
         progress(f"{', '.join(up)} up together; running {args.duration} s (no simulator)")
         time.sleep(args.duration)  # the run's length: the programs measure meanwhile
         for n in up:
-            record_cpu(n, out_dir, started[n])
+            record_cpu(folder_of(out_dir, n, repetition), started[n])
     finally:
         stopped = {n: stop(n, started[n]) for n in names}
     failed = [n for n in names if n not in up or not stopped[n]]
     for n in names:
         progress(f"{n}: {'FAILED' if n in failed else 'done'}")
     return failed
+
+
+def folder_of(out_dir, name, repetition):
+    return os.path.join(out_dir, name, str(repetition))
 
 
 def main():
@@ -178,6 +188,8 @@ def main():
     parser.add_argument("--interface", default="vcan0")
     parser.add_argument("--where", choices=("guest", "host"), default="guest",
                         help="run the configurations meant for this place (their `where`, default guest)")
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="run the configurations this many times, interleaved (default 1)")
     parser.add_argument("--start-timeout", type=float, default=20.0)
     args = parser.parse_args()
 
@@ -185,6 +197,8 @@ def main():
         configurations = {k: v for k, v in json.load(f).items() if not k.startswith("_")}
     names = [n for n in args.only.split(",") if n] or list(configurations)
     names = [n for n in names if n not in configurations or configurations[n].get("where", "guest") == args.where]
+    if args.repeat < 1:
+        parser.error(f"--repeat {args.repeat}: expected 1 or more")
     unknown = [n for n in names if n not in configurations]
     if unknown:
         parser.error(f"unknown configuration {', '.join(unknown)} (known: {', '.join(configurations)})")
@@ -203,14 +217,20 @@ def main():
         run = {"configurations": {}, "environments": {}}
     run["configurations"].update({n: configurations[n] for n in names})
     run["environments"].update({n: os.environ.get("VCAN_RUN_IN", "host") for n in names})
-    run.update({"duration_s": args.duration, "scenario": args.scenario})
+    run.update({"duration_s": args.duration, "scenario": args.scenario, "repetitions": args.repeat})
     with open(run_file, "w") as f:
         json.dump(run, f, indent=1)
-    if args.where == "host":
-        failed = run_together(names, configurations, args, args.out) if names else []
-    else:
-        failed = [n for i, n in enumerate(names, 1) if not (progress(f"configuration {i}/{len(names)}: {n}") or
-                                                              run_config(n, configurations[n], args, args.out))]
+    failed = []
+    for k in range(1, args.repeat + 1):
+        if args.where == "host":
+            if names:
+                progress(f"repetition {k}/{args.repeat}")
+                failed += [f"{n} ({k})" for n in run_together(names, configurations, args, args.out, k)]
+            continue
+        for i, n in enumerate(names, 1):
+            progress(f"repetition {k}/{args.repeat}, configuration {i}/{len(names)}: {n}")
+            if not run_config(n, configurations[n], args, folder_of(args.out, n, k)):
+                failed.append(f"{n} ({k})")
     if failed:
         progress(f"failed: {', '.join(failed)}")
         return 1

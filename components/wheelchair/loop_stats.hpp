@@ -16,6 +16,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -82,10 +83,19 @@ class SampleLog {
 // native programs and polyport wake alike. A late wake does not
 // shift later deadlines; deadlines already passed by a whole period are skipped (counted as
 // overruns) so that a stall does not turn into a burst.
+//
+// With a phase (0 <= phase < period) the deadlines are k * period + phase on CLOCK_MONOTONIC,
+// as polyport's execution contexts with a <phase>, so that loops in different processes keep
+// their order in the period run after run; without, the first deadline is one period from now.
 class PeriodicTimer {
  public:
-  explicit PeriodicTimer(std::int64_t period_ns) noexcept : period_ns_(period_ns), next_ns_(now_ns() + period_ns) {
+  explicit PeriodicTimer(std::int64_t period_ns, std::optional<std::int64_t> phase_ns = std::nullopt) noexcept
+      : period_ns_(period_ns), next_ns_(now_ns() + period_ns) {
     prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
+    if (phase_ns) {
+      const std::int64_t since = next_ns_ - period_ns - *phase_ns;  // from now
+      next_ns_ = (since / period_ns + 1) * period_ns + *phase_ns;   // the grid's next instant
+    }
   }
 
   // Waits for the next deadline; returns how late the wake was (ns).
@@ -109,6 +119,20 @@ class PeriodicTimer {
   std::int64_t next_ns_;
   std::uint64_t overruns_ = 0;
 };
+
+// A --phase-ms as a PeriodicTimer's phase (none when not given). False, with the reason on
+// stderr, when it is not from 0 to less than the period.
+inline bool timer_phase(const char* program, const std::optional<double>& phase_ms, double period_ms,
+                        std::optional<std::int64_t>& phase_ns) {
+  if (!phase_ms) return true;
+  if (!(*phase_ms >= 0.0 && *phase_ms < period_ms)) {
+    std::fprintf(stderr, "%s: --phase-ms %g is not from 0 to less than the period (%g ms)\n", program, *phase_ms,
+                 period_ms);
+    return false;
+  }
+  phase_ns = std::llround(*phase_ms * 1e6);
+  return true;
+}
 
 // User + system CPU time of this process so far, in seconds.
 inline double process_cpu_s() noexcept {

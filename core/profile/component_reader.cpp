@@ -172,10 +172,22 @@ void Loader::read_library(const Reporter& report, pugi::xml_node root, pugi::xml
                                  " not found (looked in: " + join(names, ", ") + ")");
 }
 
-void Loader::read_execution(const Reporter& report, pugi::xml_node element, ComponentProfile& profile) {
+void Loader::read_execution(const Reporter& report, pugi::xml_node element, ComponentProfile& profile,
+                            bool instance) {
   ExecutionSemantics& execution = profile.execution;
   execution.where = report.xml().at(element);
   const Children children = scan(report, element, kSemanticsRules);
+  if (instance) {
+    // What the component is designed for (its control law is tuned to its period) stays in
+    // its component profile; an instance sets where and when it runs.
+    for (const char* own : {"type", "period", "lifecycle_type"}) {
+      if (const pugi::xml_node node = children.one(own)) {
+        report.error(node, "<" + std::string(node.name()) +
+                               "> belongs in the component profile; a subcomponent's <execution_semantics> sets "
+                               "only phase, priority, policy, cpu (cpu_affinity) and spin_us");
+      }
+    }
+  }
   if (const auto type = children.one("type")) {
     if (auto value = enum_text(report, type, kExecutionTypes, "execution type")) {
       execution.type = *value;
@@ -213,10 +225,11 @@ void Loader::read_execution(const Reporter& report, pugi::xml_node element, Comp
     if (value) execution.policy = *value;
   }
   // Real-time policies need a real-time priority; SCHED_OTHER ignores it (OPRoS profiles
-  // use it to group components onto shared executors).
+  // use it to group components onto shared executors). A subcomponent's own
+  // <execution_semantics> may keep the component profile's priority.
   if (policy_ok && execution.policy != SchedPolicy::other) {
     const std::string name(sched_policy_name(execution.policy));
-    if (!priority) {
+    if (!priority && (execution.priority < kMinRtPriority || execution.priority > kMaxRtPriority)) {
       report.error(policy, name + " needs a <priority> from " + std::to_string(kMinRtPriority) +
                                " to " + std::to_string(kMaxRtPriority));
     } else if (parse_integer<int>(text_of(priority)) &&
@@ -253,6 +266,28 @@ void Loader::read_execution(const Reporter& report, pugi::xml_node element, Comp
                                   period_text + " us): expected 0 to the period");
     } else {
       execution.spin_us = *value;
+    }
+  }
+  const pugi::xml_node phase = children.one("phase");
+  if (phase) {
+    const std::string text = text_of(phase);
+    const auto value = parse_decimal(text);
+    if (!value || *value < 0.0) {
+      report.error_text(phase, "bad phase " + in_quotes(text) + ": expected a number of milliseconds, 0 or more");
+    } else {
+      execution.phase_ms = *value;
+    }
+  }
+  // Checked on what applies in the end: a subcomponent may change the period or the phase alone.
+  if (execution.phase_ms && is_periodic(execution.type) && period_ok && *execution.phase_ms >= execution.period_ms) {
+    char text[128];
+    std::snprintf(text, sizeof text, "phase %.15g ms is not shorter than the period (%.15g ms)", *execution.phase_ms,
+                  execution.period_ms);
+    const std::string message = std::string(text) + ": expected 0 to less than the period";
+    if (phase) {
+      report.error_text(phase, message);
+    } else {
+      report.error(element, message + " (the phase is the component profile's)");
     }
   }
   if (const auto lifecycle = children.one("lifecycle_type")) {

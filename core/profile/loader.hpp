@@ -140,6 +140,7 @@ const std::vector<ChildRule> kSubcomponentsRules = {{"subcomponent", {"subcompon
 const std::vector<ChildRule> kSubcomponentRules = {
     {"name", {"name"}},
     {"reference", {"reference"}},
+    {"execution_semantics", {"execution_semantics"}},
     {"", {"id", "type", "node_id"}},
 };
 const std::vector<ChildRule> kCompositesRules = {{"composite", {"composite"}, true}};
@@ -211,6 +212,7 @@ const std::vector<ChildRule> kSemanticsRules = {
     {"policy", {"policy"}},
     {"cpu", {"cpu_affinity", "cpu"}},
     {"spin_us", {"spin_us"}},
+    {"phase", {"phase"}},
     {"lifecycle_type", {"lifecycle_type"}},
     {"", {"creation_type", "instance_creation"}},
 };
@@ -329,7 +331,9 @@ class Loader {
 
   // -- application profile ---------------------------------------------------------------
 
-  void read_subcomponents(const Reporter& report, pugi::xml_node element, ApplicationProfile& app);
+  // own_semantics: each subcomponent's own <execution_semantics>, by its index in app.components.
+  void read_subcomponents(const Reporter& report, pugi::xml_node element, ApplicationProfile& app,
+                          std::map<std::size_t, pugi::xml_node>& own_semantics);
 
   void read_connections(const Reporter& report, pugi::xml_node element, ApplicationProfile& app,
                         std::vector<pugi::xml_node>& nodes);
@@ -439,7 +443,9 @@ class Loader {
   void read_library(const Reporter& report, pugi::xml_node root, pugi::xml_node environment,
                     const Children& children, ComponentProfile& profile);
 
-  void read_execution(const Reporter& report, pugi::xml_node element, ComponentProfile& profile);
+  // instance: a subcomponent's own <execution_semantics>, applied over its component profile's.
+  void read_execution(const Reporter& report, pugi::xml_node element, ComponentProfile& profile,
+                      bool instance = false);
 
   void read_properties(const Reporter& report, pugi::xml_node element, ComponentProfile& profile);
 

@@ -40,8 +40,9 @@ std::optional<ApplicationProfile> Loader::run(const fs::path& requested) {
   if (auto name = required_text(report, root, children, "name", "name")) app.name = *name;
   if (auto description = optional_text(children, "description")) app.description = *description;
   if (const auto types = children.one("types")) read_type_files(report, types, app.type_files);
+  std::map<std::size_t, pugi::xml_node> own_semantics;
   if (const auto subcomponents = children.one("subcomponents")) {
-    read_subcomponents(report, subcomponents, app);
+    read_subcomponents(report, subcomponents, app, own_semantics);
   }
   std::vector<pugi::xml_node> connection_nodes;
   if (const auto connections = children.one("port_connections")) {
@@ -50,10 +51,15 @@ std::optional<ApplicationProfile> Loader::run(const fs::path& requested) {
 
   load_type_files();
   for (const LoadedComponent* component : load_order_) check_types(*component);
-  for (auto& subcomponent : app.components) {
+  for (std::size_t i = 0; i < app.components.size(); ++i) {
+    Subcomponent& subcomponent = app.components[i];
     const auto it = components_.find(subcomponent.reference);
     if (it != components_.end() && it->second->readable) {
       subcomponent.profile = it->second->profile;
+      // The instance's own execution semantics: what it gives replaces the component profile's.
+      if (const auto own = own_semantics.find(i); own != own_semantics.end()) {
+        read_execution(report, own->second, subcomponent.profile, true);
+      }
       subcomponent.definition += file_text(subcomponent.reference);
       for (const fs::path& type_file : subcomponent.profile.type_files) subcomponent.definition += file_text(type_file);
     }
@@ -120,7 +126,8 @@ void Loader::check_types(const LoadedComponent& component) {
   }
 }
 
-void Loader::read_subcomponents(const Reporter& report, pugi::xml_node element, ApplicationProfile& app) {
+void Loader::read_subcomponents(const Reporter& report, pugi::xml_node element, ApplicationProfile& app,
+                                std::map<std::size_t, pugi::xml_node>& own_semantics) {
   const Children children = scan(report, element, kSubcomponentsRules);
   const fs::path base = app.file.parent_path();
   std::map<std::string, pugi::xml_node, std::less<>> seen;
@@ -150,7 +157,10 @@ void Loader::read_subcomponents(const Reporter& report, pugi::xml_node element, 
                      element_path(reference_node));
     }
     // A duplicate stays out of the list so connections resolve against the first one.
-    if (usable) app.components.push_back(std::move(subcomponent));
+    if (usable) {
+      if (const auto semantics = fields.one("execution_semantics")) own_semantics[app.components.size()] = semantics;
+      app.components.push_back(std::move(subcomponent));
+    }
   }
 }
 

@@ -24,6 +24,11 @@ nlohmann::json to_json(const LatencyHistogram::Summary& s) {
           {"p99", s.p99},     {"p999", s.p999}, {"max", s.max}};
 }
 
+// An execution context's phase on its period's grid; null when its cycles follow its start.
+nlohmann::json phase_json(const ExecutionSettings& settings) {
+  return settings.phase ? nlohmann::json(settings.phase->count) : nlohmann::json(nullptr);
+}
+
 std::string join(const std::vector<std::string>& items) {
   std::string out;
   for (const auto& item : items) out += (out.empty() ? "" : ", ") + item;
@@ -698,6 +703,7 @@ void Engine::describe(nlohmann::json& out) const {
     nlohmann::json j{{"name", context->settings().name},
                      {"period_ns", context->settings().period.count},
                      {"spin_us", context->settings().spin.count / 1000},
+                     {"phase_ns", phase_json(context->settings())},
                      {"policy", policy == SchedPolicy::fifo ? "SCHED_FIFO" : policy == SchedPolicy::rr ? "SCHED_RR" : "SCHED_OTHER"}};
     if (policy != SchedPolicy::other) {
       j["priority"] = context->settings().priority;
@@ -806,6 +812,7 @@ void Engine::stats(nlohmann::json& out) const {
                      {"pinned", context->pinned()},
                      {"timer_slack_ns", context->timer_slack_ns()},
                      {"spin_us", context->settings().spin.count / 1000},
+                     {"phase_ns", phase_json(context->settings())},
                      {"wake_jitter_ns", to_json(context->wake_jitter().summarize())},
                      {"cycle_time_ns", to_json(context->cycle_time().summarize())}};
     for (Lifecycle* member : context->members()) {

@@ -24,11 +24,22 @@
 
 namespace polyport {
 
+MonoTime first_on_grid(MonoTime now, Nanos period, Nanos phase) noexcept {
+  const std::int64_t since = now.ns - phase.count;
+  std::int64_t k = since / period.count;
+  if (k * period.count < since) ++k;  // round up; negative `since` truncates up already
+  return MonoTime{k * period.count + phase.count};
+}
+
 ExecutionContext::ExecutionContext(ExecutionSettings settings) : settings_(std::move(settings)) {
   // Models refuse periods under kMinPeriod with a diagnostic; this guards the arithmetic.
   if (settings_.period < kMinPeriod) settings_.period = kMinPeriod;
   if (settings_.spin < Nanos{0}) settings_.spin = Nanos{0};
   if (settings_.spin > settings_.period) settings_.spin = settings_.period;
+  if (settings_.phase && (settings_.phase->count < 0 || *settings_.phase >= settings_.period)) {
+    settings_.phase = Nanos{((settings_.phase->count % settings_.period.count) + settings_.period.count) %
+                            settings_.period.count};
+  }
   period_ns_.store(settings_.period.count, std::memory_order_relaxed);
 }
 
@@ -176,6 +187,11 @@ void ExecutionContext::run() {
   }
   if (settings_.policy != SchedPolicy::other) prefault_stack();
   MonoTime deadline = mono_now();
+  if (settings_.phase) {
+    // On the grid from the first cycle on: wait for its first instant.
+    deadline = first_on_grid(deadline, settings_.period, *settings_.phase);
+    sleep_until(deadline, settings_.spin);
+  }
   while (!stop_requested_.load(std::memory_order_acquire)) {
     if (command_to_run_.load(std::memory_order_acquire)) apply_pending_command();
 
@@ -219,7 +235,8 @@ ExecutionContext& ExecutionContextPool::shared(const ExecutionSettings& settings
     // A running context's members are fixed: a component added while the application runs
     // (a reload) gets a new context.
     if (!exclusive_[i] && !contexts_[i]->running() && !contexts_[i]->retired() && s.period == settings.period && s.policy == settings.policy &&
-        s.priority == settings.priority && s.cpu == settings.cpu && s.spin == settings.spin) {
+        s.priority == settings.priority && s.cpu == settings.cpu && s.spin == settings.spin &&
+        s.phase == settings.phase) {
       return *contexts_[i];
     }
   }

@@ -1,5 +1,7 @@
 #include "inproc_model.hpp"
 
+#include <cmath>
+
 #include "inproc_adaptor.hpp"
 #include "inproc_interceptor.hpp"
 #include "plugin_library.hpp"
@@ -23,12 +25,14 @@ ExecutionSettings settings_for(const Subcomponent& sub) {
   settings.priority = e.priority;
   settings.cpu = e.cpu;
   settings.spin = Nanos{e.spin_us * 1000};
-  // Shared contexts are keyed by period, policy, priority, CPU and spin tail; the name shows
-  // the period and the spin tail.
+  if (e.phase_ms) settings.phase = Nanos{std::llround(*e.phase_ms * 1e6)};
+  // Shared contexts are keyed by period, policy, priority, CPU, spin tail and phase; the name
+  // shows the period, the spin tail and the phase.
+  const auto us = [](std::int64_t ns) { return std::to_string(ns / 1000) + "us"; };
   settings.name = e.type == ExecutionType::periodic_exclusive
                       ? sub.name
-                      : "ec-" + std::to_string(static_cast<long long>(e.period_ms * 1000)) + "us" +
-                            (e.spin_us > 0 ? "-spin" + std::to_string(e.spin_us) + "us" : "");
+                      : "ec-" + us(settings.period.count) + (e.spin_us > 0 ? "-spin" + us(settings.spin.count) : "") +
+                            (settings.phase ? "-phase" + us(settings.phase->count) : "");
   return settings;
 }
 

@@ -234,6 +234,49 @@ TEST(Daemon, ASpinTailGetsAContextOfItsOwnAndIsReported) {
   EXPECT_EQ(spin, (std::map<std::string, std::int64_t>{{"ec-10000us", 0}, {"ec-10000us-spin200us", 200}}));
 }
 
+// The wheelchair with its components on phases of their own, set by the application profile
+// (each subcomponent's <execution_semantics>): one context per phase, which check prints and
+// the statistics report; the component profiles stay as they are.
+TEST(Daemon, SubcomponentPhasesGetContextsOfTheirOwnAndAreReported) {
+  const std::string source_dir = POLYPORT_SOURCE_DIR;
+  std::string text = slurp(source_dir + "/profiles/wheelchair_inproc.xml");
+  for (const auto& [name, phase] : std::vector<std::pair<std::string, std::string>>{{"Joystick", "3"}, {"Control", "6.5"}}) {
+    const std::string reference = "<reference>components/" + name + "Comp.xml</reference>";
+    const auto at = text.find(reference);
+    ASSERT_NE(at, std::string::npos) << reference;
+    text.insert(at + reference.size(), "<execution_semantics><phase>" + phase + "</phase></execution_semantics>");
+  }
+  std::string::size_type at = 0;
+  while ((at = text.find("components/", at)) != std::string::npos) {
+    text.replace(at, 11, source_dir + "/profiles/components/");
+    at += source_dir.size() + 21;
+  }
+  const fs::path app = scratch("phase_app.xml");
+  std::ofstream(app) << text;
+
+  Process check = spawn({"check", app.string()}, "check-phase");
+  EXPECT_EQ(wait_exit(check), 0) << slurp(check.err);
+  const std::string out = slurp(scratch("check-phase.stdout"));
+  EXPECT_NE(out.find("ec-10000us-phase3000us  period=10 ms  phase=3 ms  members: Joystick\n"), std::string::npos) << out;
+  EXPECT_NE(out.find("ec-10000us-phase6500us  period=10 ms  phase=6.5 ms  members: Control\n"), std::string::npos) << out;
+  EXPECT_NE(out.find("ec-10000us  period=10 ms  members: HW\n"), std::string::npos) << out;
+
+  const fs::path stats_file = scratch("phase-stats.json");
+  Process run = spawn({"run", app.string(), "--duration", "0.3", "--quiet", "--stats-json", stats_file.string()},
+                      "run-phase");
+  EXPECT_EQ(wait_exit(run), 0) << slurp(run.err);
+  const nlohmann::json stats = nlohmann::json::parse(slurp(stats_file), nullptr, false);
+  ASSERT_TRUE(stats.contains("execution_contexts")) << slurp(stats_file);
+  std::map<std::string, nlohmann::json> phase;
+  for (const auto& context : stats["execution_contexts"]) {
+    phase[context.value("name", "")] = context["phase_ns"];
+    EXPECT_GT(context.value("cycles", 0), 0) << context.dump();
+  }
+  EXPECT_EQ(phase, (std::map<std::string, nlohmann::json>{{"ec-10000us", nullptr},
+                                                          {"ec-10000us-phase3000us", 3'000'000},
+                                                          {"ec-10000us-phase6500us", 6'500'000}}));
+}
+
 TEST(Daemon, SigtermStopsGracefullyAndDurationStopsByItself) {
   Process p = spawn({"run", kDefaultProfile, "--quiet"}, "sigterm");
   // Wait until the daemon says it runs, then stop it.

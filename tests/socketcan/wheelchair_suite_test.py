@@ -8,8 +8,9 @@
                                           the controller commanded the motors and the chair
                                           drove; the report turns it into its JSON and table
                                           (in the vcan guest: needs vcan0)
-  wheelchair_suite_test.py host BIN       a short run of every host configuration (no CAN)
-                                          measures Joystick -> Control, and the report has it
+  wheelchair_suite_test.py host BIN       two short interleaved repetitions of every host
+                                          configuration (no CAN) measure Joystick -> Control,
+                                          and the report has both and compares them pairwise
 
 Exit 0 when it holds, 1 with the reason otherwise."""
 import csv
@@ -55,15 +56,17 @@ def check(bin_dir):
 
 def run(bin_dir, where):
     problems = []
+    repetitions = 1 if where == "guest" else 2
     with tempfile.TemporaryDirectory() as out:
         r = subprocess.run(["/usr/bin/python3", os.path.join(SUITE, "run_configs.py"), "--out", out, "--bin", bin_dir,
-                            "--duration", str(DURATION_S), "--scenario", SCENARIO, "--where", where])
+                            "--duration", str(DURATION_S), "--scenario", SCENARIO, "--where", where,
+                            "--repeat", str(repetitions)])
         if r.returncode != 0:
             problems.append(f"run_configs.py exited {r.returncode}")
         expected = round(DURATION_S / PERIOD_S)
         for name in configurations(where) if where == "guest" else []:
             try:
-                with open(os.path.join(out, name, "sim_trace.csv")) as f:
+                with open(os.path.join(out, name, "1", "sim_trace.csv")) as f:
                     rows = list(csv.DictReader(f))
             except OSError as e:
                 problems.append(f"{name}: no trace ({e})")
@@ -95,6 +98,18 @@ def run(bin_dir, where):
                     problems.append(f"{name}: missing from the report or short")
                 elif not (c["joystick_to_control_ns"] or c["polyport_share_ns"] or {}).get("count"):
                     problems.append(f"{name}: no Joystick -> Control latency measured ({c['joystick_to_control_source']})")
+                elif c["repetitions"] != repetitions or any(
+                        v is None for v in c["joystick_to_control_mean_ns_by_repetition"].values()
+                        if c["joystick_to_control_ns"]):
+                    problems.append(f"{name}: {c['repetitions']} repetitions in the report, expected {repetitions} "
+                                    f"each with its mean ({c['joystick_to_control_mean_ns_by_repetition']})")
+            # A configuration compared with a native one: one difference per repetition.
+            for name, config in configurations(where).items():
+                if not config.get("compare_with"):
+                    continue
+                bar = next((b for b in report["bars"] if b["bar"].startswith(f"{name} ") and "within" in b["bar"]), None)
+                if bar is None or len(bar["by_repetition_ns"]) != repetitions:
+                    problems.append(f"{name}: no end-to-end bar over {repetitions} repetitions in the report ({bar})")
     for p in problems:
         print(p)
     print(f"ran {len(configurations(where))} {where} configurations: {len(problems)} problems")

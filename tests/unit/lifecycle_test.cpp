@@ -5,9 +5,12 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <fstream>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -137,7 +140,7 @@ TEST(Lifecycle, NamesOfAllThreeModelsAreAccepted) {
 TEST(ExecutionContext, RunsHooksOnItsOwnThreadAtItsPeriod) {
   Recorder c;
   Lifecycle l(c);
-  ExecutionContext ec(ExecutionSettings{"test-ec", Nanos{1'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}});
+  ExecutionContext ec(ExecutionSettings{"test-ec", Nanos{1'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}, std::nullopt});
   ec.add(l);
   std::vector<std::string> warnings;
   ec.start(warnings);
@@ -163,7 +166,7 @@ TEST(ExecutionContext, RefusedRealtimePriorityFallsBackWithAWarning) {
   Lifecycle l(c);
   // Priority 99 under SCHED_FIFO needs CAP_SYS_NICE; either it is granted (and applied) or
   // the context says why not and still runs.
-  ExecutionContext ec(ExecutionSettings{"rt-ec", Nanos{1'000'000}, SchedPolicy::fifo, 99, 0, Nanos{0}});
+  ExecutionContext ec(ExecutionSettings{"rt-ec", Nanos{1'000'000}, SchedPolicy::fifo, 99, 0, Nanos{0}, std::nullopt});
   ec.add(l);
   std::vector<std::string> warnings;
   ec.start(warnings);
@@ -186,7 +189,7 @@ TEST(ExecutionContext, SpinTailRunsAtItsPeriodTakesCommandsAndStops) {
     SCOPED_TRACE(spin.count);
     Recorder c;
     Lifecycle l(c);
-    ExecutionSettings settings{"spin-ec", Nanos{2'000'000}, SchedPolicy::other, 0, std::nullopt, spin};
+    ExecutionSettings settings{"spin-ec", Nanos{2'000'000}, SchedPolicy::other, 0, std::nullopt, spin, std::nullopt};
     ExecutionContext ec(settings);
     EXPECT_EQ(ec.settings().spin, spin);
     ec.add(l);
@@ -216,7 +219,7 @@ TEST(ExecutionContext, ARealTimeContextSleepsWhileAnOrdinaryCallerCollectsItsCom
   if (sysconf(_SC_NPROCESSORS_ONLN) < 2) GTEST_SKIP() << "needs two CPUs: the test's own thread stays off CPU 0";
   Recorder c;
   Lifecycle l(c);
-  ExecutionContext ec(ExecutionSettings{"rt-cmd", Nanos{100'000'000}, SchedPolicy::fifo, 30, 0, Nanos{0}});
+  ExecutionContext ec(ExecutionSettings{"rt-cmd", Nanos{100'000'000}, SchedPolicy::fifo, 30, 0, Nanos{0}, std::nullopt});
   ec.add(l);
   std::vector<std::string> warnings;
   ec.start(warnings);
@@ -251,18 +254,18 @@ TEST(ExecutionContext, ARealTimeContextSleepsWhileAnOrdinaryCallerCollectsItsCom
 
 TEST(ExecutionContext, SpinTailIsAtMostThePeriod) {
   ExecutionContext longer(ExecutionSettings{"a", Nanos{1'000'000}, SchedPolicy::other, 0, std::nullopt,
-                                            Nanos{5'000'000}});
+                                            Nanos{5'000'000}, std::nullopt});
   EXPECT_EQ(longer.settings().spin, Nanos{1'000'000});
   ExecutionContext negative(ExecutionSettings{"b", Nanos{1'000'000}, SchedPolicy::other, 0, std::nullopt,
-                                              Nanos{-1}});
+                                              Nanos{-1}, std::nullopt});
   EXPECT_EQ(negative.settings().spin, Nanos{0});
 }
 
 TEST(ExecutionContextPool, ComponentsWithDifferentSpinTailsDoNotShare) {
   ExecutionContextPool pool;
-  ExecutionSettings plain{"a", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}};
-  ExecutionSettings spin{"b", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{200'000}};
-  ExecutionSettings more{"c", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{300'000}};
+  ExecutionSettings plain{"a", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}, std::nullopt};
+  ExecutionSettings spin{"b", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{200'000}, std::nullopt};
+  ExecutionSettings more{"c", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{300'000}, std::nullopt};
   EXPECT_NE(&pool.shared(plain), &pool.shared(spin));
   EXPECT_NE(&pool.shared(spin), &pool.shared(more));
   EXPECT_EQ(&pool.shared(spin), &pool.shared(spin));
@@ -270,10 +273,83 @@ TEST(ExecutionContextPool, ComponentsWithDifferentSpinTailsDoNotShare) {
   EXPECT_EQ(pool.contexts().size(), 3u);
 }
 
+TEST(ExecutionContextPool, ComponentsWithDifferentPhasesDoNotShare) {
+  ExecutionContextPool pool;
+  ExecutionSettings free{"a", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}, std::nullopt};
+  ExecutionSettings zero{"b", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}, Nanos{0}};
+  ExecutionSettings three{"c", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}, Nanos{3'000'000}};
+  EXPECT_NE(&pool.shared(free), &pool.shared(zero));  // phase 0 is on the grid, free is not
+  EXPECT_NE(&pool.shared(zero), &pool.shared(three));
+  EXPECT_EQ(&pool.shared(three), &pool.shared(three));
+  EXPECT_EQ(pool.shared(three).settings().phase, Nanos{3'000'000});
+  EXPECT_EQ(pool.contexts().size(), 3u);
+}
+
+TEST(ExecutionContext, FirstOnGridIsTheNextInstantOfPeriodTimesKPlusPhase) {
+  const Nanos period{10'000'000};
+  EXPECT_EQ(first_on_grid(MonoTime{1'003'000'000}, period, Nanos{3'000'000}), MonoTime{1'003'000'000});  // on it
+  EXPECT_EQ(first_on_grid(MonoTime{1'003'000'001}, period, Nanos{3'000'000}), MonoTime{1'013'000'000});
+  EXPECT_EQ(first_on_grid(MonoTime{1'002'999'999}, period, Nanos{3'000'000}), MonoTime{1'003'000'000});
+  EXPECT_EQ(first_on_grid(MonoTime{1'000'000'001}, period, Nanos{0}), MonoTime{1'010'000'000});
+  EXPECT_EQ(first_on_grid(MonoTime{2'000'000}, period, Nanos{9'999'999}), MonoTime{9'999'999});  // before the first
+  EXPECT_EQ(first_on_grid(MonoTime{0}, period, Nanos{0}), MonoTime{0});
+}
+
+// Stamps each onExecute with mono_now(), into room reserved up front.
+class Stamper final : public ComponentBase {
+ public:
+  ReturnCode onExecute() override {
+    const std::size_t i = count.load(std::memory_order_relaxed);
+    if (i < stamps.size()) {
+      stamps[i] = mono_now().ns;
+      count.store(i + 1, std::memory_order_release);
+    }
+    return ReturnCode::ok;
+  }
+  std::array<std::int64_t, 64> stamps{};
+  std::atomic<std::size_t> count{0};
+};
+
+TEST(ExecutionContext, APhaseRunsTheCyclesOnTheGridOfThePeriod) {
+  // Two contexts started together, phases 0 and 25 ms in a 50 ms period. Each runs at
+  // k * 50 ms + its phase, late only by its wake-up: half a period apart however they were
+  // started. (Free contexts started together would run at the same offset.)
+  constexpr Nanos period{50'000'000};
+  const std::array<Nanos, 2> phases{Nanos{0}, Nanos{25'000'000}};
+  std::array<Stamper, 2> components;
+  std::vector<std::unique_ptr<Lifecycle>> lifecycles;
+  std::vector<std::unique_ptr<ExecutionContext>> contexts;
+  std::vector<std::string> warnings;
+  for (std::size_t i = 0; i < phases.size(); ++i) {
+    lifecycles.push_back(std::make_unique<Lifecycle>(components[i]));
+    contexts.push_back(std::make_unique<ExecutionContext>(
+        ExecutionSettings{"phase-" + std::to_string(i), period, SchedPolicy::other, 0, std::nullopt, Nanos{0}, phases[i]}));
+    contexts[i]->add(*lifecycles[i]);
+  }
+  for (auto& context : contexts) context->start(warnings);
+  for (std::size_t i = 0; i < phases.size(); ++i) {
+    EXPECT_EQ(contexts[i]->command(*lifecycles[i], LifecycleCommand::initialize), ReturnCode::ok);
+    EXPECT_EQ(contexts[i]->command(*lifecycles[i], LifecycleCommand::activate), ReturnCode::ok);
+  }
+  ASSERT_TRUE(eventually([&] { return components[0].count.load() >= 9 && components[1].count.load() >= 9; },
+                         std::chrono::seconds(10)));
+  for (auto& context : contexts) context->stop();
+  for (std::size_t i = 0; i < phases.size(); ++i) {
+    SCOPED_TRACE(i);
+    std::vector<std::int64_t> offsets;  // how far past its grid instant each cycle ran
+    for (std::size_t k = 0; k < components[i].count.load(std::memory_order_acquire); ++k) {
+      offsets.push_back(((components[i].stamps[k] - phases[i].count) % period.count + period.count) % period.count);
+    }
+    std::sort(offsets.begin(), offsets.end());
+    // A fifth of the period: a wake-up on a busy machine, far from the other phase's 25 ms.
+    EXPECT_LT(offsets[offsets.size() / 2], period.count / 5) << "median offset from the grid, ns";
+  }
+}
+
 TEST(ExecutionContextPool, SharesContextsByPeriodAndPriority) {
   ExecutionContextPool pool;
-  ExecutionSettings ten{"a", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}};
-  ExecutionSettings five{"b", Nanos{5'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}};
+  ExecutionSettings ten{"a", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}, std::nullopt};
+  ExecutionSettings five{"b", Nanos{5'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}, std::nullopt};
   EXPECT_EQ(&pool.shared(ten), &pool.shared(ten));
   EXPECT_NE(&pool.shared(ten), &pool.shared(five));
   EXPECT_NE(&pool.exclusive(ten), &pool.shared(ten));
@@ -284,7 +360,7 @@ TEST(ExecutionContextPool, SharesContextsByPeriodAndPriority) {
 // (a reload) gets a context of its own.
 TEST(ExecutionContextPool, ARunningContextIsNotShared) {
   ExecutionContextPool pool;
-  ExecutionSettings ten{"a", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}};
+  ExecutionSettings ten{"a", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}, std::nullopt};
   ExecutionContext& first = pool.shared(ten);
   std::vector<std::string> warnings;
   pool.start_all(warnings);
@@ -309,7 +385,7 @@ long locked_kib() {
 TEST(ExecutionContextPool, ARealTimeContextLocksMemoryWhereTheLimitsAllow) {
   {
     ExecutionContextPool plain;
-    plain.exclusive(ExecutionSettings{"other", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}});
+    plain.exclusive(ExecutionSettings{"other", Nanos{10'000'000}, SchedPolicy::other, 0, std::nullopt, Nanos{0}, std::nullopt});
     std::vector<std::string> warnings;
     plain.start_all(warnings);
     EXPECT_FALSE(plain.memory_locked());
@@ -319,7 +395,7 @@ TEST(ExecutionContextPool, ARealTimeContextLocksMemoryWhereTheLimitsAllow) {
     plain.stop_all();
   }
   ExecutionContextPool pool;
-  pool.exclusive(ExecutionSettings{"fifo", Nanos{10'000'000}, SchedPolicy::fifo, 10, std::nullopt, Nanos{0}});
+  pool.exclusive(ExecutionSettings{"fifo", Nanos{10'000'000}, SchedPolicy::fifo, 10, std::nullopt, Nanos{0}, std::nullopt});
   std::vector<std::string> warnings;
   pool.start_all(warnings);
   std::string said;

@@ -868,15 +868,16 @@ class ProfileAliases : public ::testing::Test {
 
   // Writes `text` (component_profile content) and an application using it; returns the
   // loaded component profile, or nothing with the diagnostics kept.
+  // `instance`: more of the <subcomponent> element (line 7 of app.xml).
   std::optional<ComponentProfile> load_component(const std::string& text,
-                                                 const std::string& prefix = "") {
+                                                 const std::string& prefix = "", const std::string& instance = "") {
     write(dir_ / "Comp.xml", prefix +
                                  "<component_profile>\n  <name>Comp</name>\n"
                                  "  <model>lcm</model>\n" +
                                  text + "</component_profile>\n");
     write(dir_ / "app.xml",
           "<application_profile>\n  <name>app</name>\n  <subcomponents>\n    <subcomponent>\n"
-          "      <name>C</name>\n      <reference>Comp.xml</reference>\n    </subcomponent>\n"
+          "      <name>C</name>\n      <reference>Comp.xml</reference>\n" + instance + "    </subcomponent>\n"
           "  </subcomponents>\n</application_profile>\n");
     TypeRegistry types;
     diagnostics_ = Diagnostics();
@@ -964,6 +965,76 @@ TEST_F(ProfileAliases, SpinTailErrors) {
   EXPECT_EQ(messages(), (std::vector<std::string>{
       "Comp.xml:4:32: /component_profile/execution_semantics/period: bad period 'ten': expected a "
       "number of milliseconds, 0 or more"}));
+}
+
+TEST_F(ProfileAliases, Phase) {
+  auto profile = load_component("  <execution_semantics><period>10</period></execution_semantics>\n");
+  ASSERT_TRUE(profile.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_FALSE(profile->execution.phase_ms.has_value());  // free: the cycles follow the start
+  profile = load_component("  <execution_semantics><period>10</period><phase> 2.5 </phase></execution_semantics>\n");
+  ASSERT_TRUE(profile.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_EQ(profile->execution.phase_ms, 2.5);
+  profile = load_component("  <execution_semantics><period>10</period><phase>0</phase></execution_semantics>\n");
+  ASSERT_TRUE(profile.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_EQ(profile->execution.phase_ms, 0.0);
+}
+
+TEST_F(ProfileAliases, PhaseErrors) {
+  for (const auto& [text, column] : std::vector<std::pair<std::string, std::string>>{
+           {"-1", "50"}, {"soon", "50"}, {"", "43"}}) {
+    SCOPED_TRACE(text);
+    EXPECT_FALSE(load_component("  <execution_semantics><period>10</period><phase>" + text +
+                                "</phase></execution_semantics>\n")
+                     .has_value());
+    EXPECT_EQ(messages(), (std::vector<std::string>{
+        "Comp.xml:4:" + column + ": /component_profile/execution_semantics/phase: bad phase '" + text +
+        "': expected a number of milliseconds, 0 or more"}));
+  }
+  EXPECT_FALSE(load_component("  <execution_semantics><period>2.5</period><phase>2.5</phase></execution_semantics>\n")
+                   .has_value());
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      "Comp.xml:4:51: /component_profile/execution_semantics/phase: phase 2.5 ms is not shorter than the "
+      "period (2.5 ms): expected 0 to less than the period"}));
+}
+
+// A subcomponent's own <execution_semantics>: where and when this instance runs, over what
+// its component profile says.
+TEST_F(ProfileAliases, AnInstanceSetsItsPhaseAndSchedulingOverItsComponentProfile) {
+  const std::string component =
+      "  <execution_semantics><period>10</period><policy>SCHED_FIFO</policy><priority>50</priority>"
+      "<phase>1</phase><spin_us>100</spin_us></execution_semantics>\n";
+  auto profile = load_component(component, "",
+                                "      <execution_semantics><phase>6</phase><cpu>1</cpu><policy>RR</policy>"
+                                "</execution_semantics>\n");
+  ASSERT_TRUE(profile.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_EQ(profile->execution.phase_ms, 6.0);
+  EXPECT_EQ(profile->execution.cpu, 1);
+  EXPECT_EQ(profile->execution.policy, SchedPolicy::rr);
+  EXPECT_EQ(profile->execution.priority, 50);  // the component profile's, still a real-time one
+  EXPECT_EQ(profile->execution.period_ms, 10.0);
+  EXPECT_EQ(profile->execution.spin_us, 100);
+  // Without one, the component profile's.
+  profile = load_component(component);
+  ASSERT_TRUE(profile.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_EQ(profile->execution.phase_ms, 1.0);
+  EXPECT_FALSE(profile->execution.cpu.has_value());
+}
+
+TEST_F(ProfileAliases, AnInstanceDoesNotChangeWhatItsComponentIsDesignedFor) {
+  EXPECT_FALSE(load_component("  <execution_semantics><period>10</period></execution_semantics>\n", "",
+                              "      <execution_semantics><period>5</period><phase>1</phase></execution_semantics>\n")
+                   .has_value());
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      "app.xml:7:28: /application_profile/subcomponents/subcomponent/execution_semantics/period: <period> belongs "
+      "in the component profile; a subcomponent's <execution_semantics> sets only phase, priority, policy, cpu "
+      "(cpu_affinity) and spin_us"}));
+  // The instance's phase is checked against the component's period, where the instance wrote it.
+  EXPECT_FALSE(load_component("  <execution_semantics><period>10</period></execution_semantics>\n", "",
+                              "      <execution_semantics><phase>12</phase></execution_semantics>\n")
+                   .has_value());
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      "app.xml:7:35: /application_profile/subcomponents/subcomponent/execution_semantics/phase: phase 12 ms is "
+      "not shorter than the period (10 ms): expected 0 to less than the period"}));
 }
 
 TEST_F(ProfileAliases, SchedulingPolicies) {

@@ -41,8 +41,12 @@ int main(int argc, char** argv) {
   CLI::App app{"wheelchair_lcm_joystick: the wheelchair's Joystick as an LCM program"};
   app.add_option("--url", url, "LCM provider")->capture_default_str();
   app.add_option("--period-ms", period_ms, "period")->capture_default_str()->check(CLI::Range(1.0, 1000.0));
+  std::optional<double> phase_ms;
+  app.add_option("--phase-ms", phase_ms, "run at k * period + phase on CLOCK_MONOTONIC (default: a period after start)");
   app.add_option("--summary", summary_path, "write the run's figures (JSON) here at exit");
   CLI11_PARSE(app, argc, argv);
+  std::optional<std::int64_t> phase_ns;
+  if (!wc::timer_phase("wheelchair_lcm_joystick", phase_ms, period_ms, phase_ns)) return 2;
 
   lcm_t* lcm = lcm_create(url.c_str());
   if (lcm == nullptr) {
@@ -56,7 +60,7 @@ int main(int argc, char** argv) {
   std::fprintf(stderr, "wheelchair_lcm_joystick joystick: running on %s\n", url.c_str());
 
   wc::SampleLog lateness(1 << 20);
-  wc::PeriodicTimer timer(static_cast<std::int64_t>(period_ms * 1e6));
+  wc::PeriodicTimer timer(static_cast<std::int64_t>(period_ms * 1e6), phase_ns);
   std::size_t periods = 0;
   while (!g_stop.load(std::memory_order_relaxed)) {
     lateness.add(timer.wait());

@@ -54,6 +54,7 @@ struct NodeOptions {
   const char* program = "";
   std::string role;
   int period_ms = 10;
+  std::optional<double> phase_ms;  // the loop's place in the period; none: a period from start
   std::string interface = "vcan0";
   std::string summary;
   int domain = 0;
@@ -68,6 +69,8 @@ inline std::optional<int> parse_node_options(CLI::App& app, NodeOptions& options
   app.add_option("--period-ms", options.period_ms, "the loop's period, milliseconds")
       ->capture_default_str()
       ->check(CLI::Range(1, 60000));
+  app.add_option("--phase-ms", options.phase_ms,
+                 "run the loop at k * period + phase on CLOCK_MONOTONIC (default: a period after start)");
   app.add_option("--if", options.interface, "hw: the CAN interface")->capture_default_str();
   app.add_option("--summary", options.summary, "write the run's summary (JSON) to this file at exit");
   app.add_option("--domain", options.domain, "the DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
@@ -77,6 +80,8 @@ inline std::optional<int> parse_node_options(CLI::App& app, NodeOptions& options
     const int code = app.exit(e);
     return code == 0 ? kExitOk : kExitUsage;
   }
+  std::optional<std::int64_t> phase_ns;
+  if (!wc::timer_phase(options.program, options.phase_ms, options.period_ms, phase_ns)) return kExitUsage;
   return std::nullopt;
 }
 
@@ -88,8 +93,10 @@ struct LoopStats {
 
 // Runs `step` at every deadline until a stop signal; the signal is seen at the next wake.
 template <class Step>
-inline void run_periodic(int period_ms, LoopStats& stats, Step&& step) {
-  wc::PeriodicTimer timer(static_cast<std::int64_t>(period_ms) * 1'000'000);
+inline void run_periodic(const NodeOptions& options, LoopStats& stats, Step&& step) {
+  std::optional<std::int64_t> phase_ns;
+  wc::timer_phase(options.program, options.phase_ms, options.period_ms, phase_ns);  // checked by parse_node_options
+  wc::PeriodicTimer timer(static_cast<std::int64_t>(options.period_ms) * 1'000'000, phase_ns);
   while (!g_stop.load(std::memory_order_relaxed)) {
     stats.lateness.add(timer.wait());
     if (g_stop.load(std::memory_order_relaxed)) break;

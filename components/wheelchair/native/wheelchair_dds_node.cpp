@@ -2,8 +2,8 @@
 // as a Cyclone DDS program of its own, the benchmark's "native B" configuration: no polyport,
 // types generated from config/types/wheelchair.idl by idlc, the math of steering.hpp.
 //
-//   wheelchair_dds_node --role joystick|control|hw|stick [--period-ms 10] [--if vcan0]
-//                       [--summary FILE] [--domain 0]
+//   wheelchair_dds_node --role joystick|control|hw|stick [--period-ms 10] [--phase-ms P]
+//                       [--if vcan0] [--summary FILE] [--domain 0]
 //
 // Roles and topics (every reader and writer reliable, keep_last 1, volatile):
 //   hw        raw CAN socket on --if, kernel filters for 0x101 (joystick) and 0x181 (encoders);
@@ -165,7 +165,7 @@ int run_joystick(const Options& options) {
 
   LoopStats stats;
   wheelchair_JoystickPosition stick{};  // centred until the first sample
-  run_periodic(options.period_ms, stats, [&] {
+  run_periodic(options, stats, [&] {
     take_newest(joystick_in, stick);
     const wc::Reference reference = wc::joystick_to_reference(wc::JoystickPosition{stick.x, stick.y});
     const wheelchair_Reference sample{reference.direction_deg, reference.speed_mps};
@@ -186,7 +186,7 @@ int run_stick(const Options& options) {
   announce(options);
 
   LoopStats stats;
-  run_periodic(options.period_ms, stats, [&] {
+  run_periodic(options, stats, [&] {
     const double t = static_cast<double>(stats.periods + 1) * options.period_ms / 1000.0;
     const wc::JoystickPosition p = scenario.scenario.position_at(t);
     const wheelchair_JoystickPosition stick{p.x, p.y};
@@ -247,7 +247,7 @@ int run_control(const Options& options) {
   wc::SpeedRatioController controller;
   const double period_s = options.period_ms / 1000.0;
   wheelchair_WheelSpeeds speeds{};  // at rest until the first sample
-  run_periodic(options.period_ms, stats, [&] {
+  run_periodic(options, stats, [&] {
     wc::Reference reference;
     {
       const std::lock_guard<std::mutex> lock(input.mutex);
@@ -286,7 +286,7 @@ int run_hw(const Options& options) {
   LoopStats stats;
   wheelchair_MotorVoltages voltages{};
   bool have_voltages = false;
-  run_periodic(options.period_ms, stats, [&] {
+  run_periodic(options, stats, [&] {
     bus.drain();
     const wheelchair_JoystickPosition joystick{bus.stick().x, bus.stick().y};
     dds_write(joystick_out, &joystick);

@@ -151,7 +151,7 @@ int run_hw(const Options& options) {
   wheelchair::WheelSpeeds speeds;
   wheelchair::MotorVoltages voltages;
   bool have_voltages = false;
-  run_periodic(options.period_ms, stats, [&] {
+  run_periodic(options, stats, [&] {
     bus.drain();
     joystick.x(bus.stick().x);
     joystick.y(bus.stick().y);

@@ -48,6 +48,7 @@ void on_signal(int) { g_stop.store(true); }
 struct Options {
   std::string interface = "vcan0";
   double period_ms = 10.0;
+  std::optional<double> phase_ms;
   double duration_s = 12.0;
   std::string scenario = "0:0:0; 0.5:0:0.6; 2.0:20:0.6; 6.0:0:0.6";
   std::string trace_path;
@@ -187,6 +188,7 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0.01, 86400.0));
   app.add_option("--scenario", o.scenario, "the stick: \"time_s:angle_deg:magnitude; ...\"")->capture_default_str();
+  app.add_option("--phase-ms", o.phase_ms, "run at k * period + phase on CLOCK_MONOTONIC (default: a period after start)");
   app.add_option("--trace", o.trace_path, "write the per-period trace (CSV) here");
   app.add_option("--summary", o.summary_path, "write the run's figures (JSON) here");
   app.add_option("--start-timeout-s", o.start_timeout_s, "give up when no motor-voltage frame comes within this")
@@ -194,6 +196,8 @@ int main(int argc, char** argv) {
   app.add_option("--response-v", o.response_v, "voltage change that counts as the motors' response to a step")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  std::optional<std::int64_t> phase_ns;
+  if (!wc::timer_phase("wheelchair_sim", o.phase_ms, o.period_ms, phase_ns)) return 2;
 
   const wc::ScenarioParseResult scenario = wc::parse_scenario(o.scenario);
   if (!scenario.ok()) {
@@ -228,7 +232,7 @@ int main(int argc, char** argv) {
   std::fprintf(stderr, "wheelchair_sim: on %s, waiting for the controller's first motor-voltage frame (0x%03x)\n",
                o.interface.c_str(), wc::can::kVoltagesId);
 
-  wc::PeriodicTimer timer(static_cast<std::int64_t>(o.period_ms * 1e6));
+  wc::PeriodicTimer timer(static_cast<std::int64_t>(o.period_ms * 1e6), phase_ns);
   while (!g_stop.load(std::memory_order_relaxed)) {
     const std::int64_t late = timer.wait();
     Stamped s;

@@ -76,6 +76,10 @@ struct ExecutionSemantics {
   // polyport: the execution context sleeps until this long before each deadline, then spins
   // on the clock until the deadline (0: no spin tail). At most the period.
   std::int64_t spin_us = 0;
+  // polyport: the cycles' place on a grid of the period counted from CLOCK_MONOTONIC's zero:
+  // every cycle starts at k * period + phase (0 <= phase < period). None: the first cycle
+  // runs when the context starts and the others follow it.
+  std::optional<double> phase_ms;
   SourceLocation where;
 };
 

@@ -46,7 +46,14 @@ struct ExecutionSettings {
   int priority = 0;
   std::optional<int> cpu;
   Nanos spin{0};  // the spin tail before each deadline; 0: sleep all the way
+  // Cycles at k * period + phase on CLOCK_MONOTONIC (0 <= phase < period); none: the first
+  // cycle runs at start() and the others follow it.
+  std::optional<Nanos> phase;
 };
+
+// The first instant at or after `now` of the grid k * period + phase (period > 0,
+// 0 <= phase < period; times from CLOCK_MONOTONIC's zero).
+MonoTime first_on_grid(MonoTime now, Nanos period, Nanos phase) noexcept;
 
 class ExecutionContext {
  public:
