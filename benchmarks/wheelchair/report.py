@@ -322,12 +322,14 @@ def table(result):
         for hop, h in c["polyport_hops"].items():
             t = h.get("transit_ns", {})
             lines.append(f"| {n} | {hop} | {us(h['latency_ns'].get('p50'))} | {us(h['latency_ns'].get('p99'))} | {us(t.get('p50'))} |")
-    lines += ["", "## Bars", "", "| bar | measured | by repetition | holds |", "|---|---|---|---|"]
+    lines += ["", "## Bars", "", "| bar | measured | by repetition (µs) | holds |", "|---|---|---|---|"]
+    units = {"measured_ns": (1e-3, " µs"), "measured_deg": (1, "°"), "measured_rad_s": (1, " rad/s")}
     for b in result["bars"]:
-        measured = next((v for k, v in b.items() if k.startswith("measured")), None)
-        text = f"{measured:.3f}" if isinstance(measured, float) else str(measured)
+        key, measured = next(((k, v) for k, v in b.items() if k.startswith("measured")), (None, None))
+        scale, unit = units.get(key, (1, ""))
+        text = f"{measured * scale:.3f}{unit}" if isinstance(measured, (int, float)) and key in units else str(measured)
         by = b.get("by_repetition_ns")
-        by_text = ", ".join(f"{v:.0f}" for v in (by.values() if isinstance(by, dict) else by)) if by else "–"
+        by_text = ", ".join(f"{v / 1000:.2f}" for v in (by.values() if isinstance(by, dict) else by)) if by else "–"
         lines.append(f"| {b['bar']} | {text} | {by_text} | {'yes' if b['holds'] else '**no**'} |")
     return "\n".join(lines) + "\n"
 
@@ -360,14 +362,19 @@ def plots(result, traces, prefix):
     fig, ax = plt.subplots(figsize=(9, 4.5))
     marks = [("min", "min"), ("p50", "p50"), ("p90", "p90"), ("p99", "p99"), ("max", "max")]
     names = [n for n, c in result["configurations"].items() if c["joystick_to_control_ns"]]
-    for i, n in enumerate(names):
+    # Each mark at its own place on the axis: a summary without p90 (a program's) leaves a gap.
+    place = {k: i for i, (k, _) in enumerate(marks)}
+    for n in names:
         s = result["configurations"][n]["joystick_to_control_ns"]
-        xs = [k for k, _ in marks if k in s]
-        ax.plot(xs, [s[k] / 1000 for k in xs], marker="o", label=f"{n} (n={s.get('count')})")
+        ks = [k for k, _ in marks if k in s]
+        ax.plot([place[k] for k in ks], [s[k] / 1000 for k in ks], marker="o", label=f"{n} (n={s.get('count')})")
         share = result["configurations"][n].get("polyport_share_ns")
         if share:
-            xs = [k for k, _ in marks if k in share]
-            ax.plot(xs, [share[k] / 1000 for k in xs], marker="x", linestyle=":", label=f"{n}: polyport's share")
+            ks = [k for k, _ in marks if k in share]
+            ax.plot([place[k] for k in ks], [share[k] / 1000 for k in ks], marker="x", linestyle=":",
+                    label=f"{n}: polyport's share")
+    ax.set_xticks(range(len(marks)))
+    ax.set_xticklabels([label for _, label in marks])
     ax.set_yscale("log")
     ax.set_ylabel("Joystick -> Control latency (µs)")
     ax.set_title("Latency distribution per configuration")

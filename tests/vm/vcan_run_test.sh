@@ -115,9 +115,9 @@ case_floating_point_state_survives_switches_in_the_guest() {
 for i in range(1, 2000000): s += 1.0 / i + 1e-9 * (i % 7)
 print(repr(s))'
   local expected
-  expected=$(python3 -c "$sum")
+  expected=$(/usr/bin/python3 -c "$sum")
   GLIBC_TUNABLES=glibc.malloc.perturb=0 run_runner -- bash -c '
-    python3 -c "$1" > "$2/a" & python3 -c "$1" > "$2/b" & wait
+    /usr/bin/python3 -c "$1" > "$2/a" & /usr/bin/python3 -c "$1" > "$2/b" & wait
     cat "$2/a" "$2/b"; echo "tunables=$GLIBC_TUNABLES"' _ "$sum" "$scratch"
   check "exit status 0" [ "$status" -eq 0 ]
   check "both sums are the host's ($expected)" [ "$(grep -cx -- "$expected" "$scratch/out")" -eq 2 ]
