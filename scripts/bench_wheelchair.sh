@@ -36,6 +36,7 @@ repeat=1
 previous=""
 for arg in "$@"; do
   [ "$previous" != --repeat ] || repeat=$arg
+  [[ "$arg" != --repeat=* ]] || repeat=${arg#--repeat=}
   previous=$arg
 done
 [[ "$repeat" =~ ^[1-9][0-9]*$ ]] || { echo "bench_wheelchair.sh: --repeat $repeat: expected 1 or more" >&2; exit 2; }

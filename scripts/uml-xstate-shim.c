@@ -8,10 +8,15 @@
 //   uml-xstate-shim UML [ARGS...]      exec UML with PTRACE_{GET,SET}REGSET of NT_X86_XSTATE
 //                                      refused (EIO) by a seccomp filter
 //
-// Refused, UML finds no XSAVE support and saves and restores its processes' registers with
-// PTRACE_{GET,SET}FPREGS: the x87 and SSE state (FXSAVE, 512 bytes), not the AVX and later
-// state. The guest's programs must then use no AVX: vcan-run tells glibc (GLIBC_TUNABLES) to
-// take its SSE2 string functions, and the project builds for baseline x86-64.
+// Refused, UML finds no XSAVE support and saves and restores registers with
+// PTRACE_{GET,SET}FPREGS: the x87 and SSE state (FXSAVE, 512 bytes). UML runs one host process
+// per guest address space, whose AVX and later state the host kernel keeps; what is not kept
+// is that state between threads of one guest process (they share a host process) and around
+// signal handlers. So threaded guest programs must not use AVX: vcan-run tells glibc
+// (GLIBC_TUNABLES) to take its SSE2 functions, and the project builds for baseline x86-64.
+// Libraries that pick AVX from CPUID themselves (OpenSSL, OpenBLAS, ...) are not covered: the
+// vm tests' programs load libcrypto through the DDS libraries but call none of it (no DDS
+// security), and load no other.
 #include <cpuid.h>
 #include <errno.h>
 #include <linux/audit.h>

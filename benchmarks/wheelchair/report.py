@@ -252,13 +252,19 @@ def build(run_dir):
             bars.append({"bar": f"{name}{where}: polyport's share of Joystick -> Control <= {SHARE_MEAN_NS / 1000:g} us mean "
                                 f"(the largest of {len(shares)} repetitions)", "measured_ns": v, "holds": v <= SHARE_MEAN_NS,
                          "by_repetition_ns": shares})
-        if native in by_rep:
+        if native and native not in by_rep:
+            bars.append({"bar": f"{name}{where}: Joystick -> Control within {E2E_MEAN_VS_NATIVE_NS / 1000:g} us of "
+                                f"{native}: {native} did not run", "measured_ns": None, "holds": False})
+        elif native:
             # Each repetition against the native configuration's of the same repetition (run
             # next to it); the bar is on the median of these differences.
             diffs = {str(k): mean_of(r["joystick_to_control_ns"]) - mean_of(by_rep[native][k]["joystick_to_control_ns"])
                      for k, r in reps.items() if k in by_rep[native] and mean_of(r["joystick_to_control_ns"]) is not None
                      and mean_of(by_rep[native][k]["joystick_to_control_ns"]) is not None}
-            if diffs:
+            if not diffs:
+                bars.append({"bar": f"{name}{where}: Joystick -> Control within {E2E_MEAN_VS_NATIVE_NS / 1000:g} us of "
+                                    f"{native}: no round measured both", "measured_ns": None, "holds": False})
+            else:
                 d = median(diffs.values())
                 bars.append({"bar": f"{name}{where}: Joystick -> Control within {E2E_MEAN_VS_NATIVE_NS / 1000:g} us of "
                                     f"{native} (mean; the median over {len(diffs)} repetitions of the difference)",

@@ -175,7 +175,9 @@ void Loader::read_library(const Reporter& report, pugi::xml_node root, pugi::xml
 void Loader::read_execution(const Reporter& report, pugi::xml_node element, ComponentProfile& profile,
                             bool instance) {
   ExecutionSemantics& execution = profile.execution;
-  execution.where = report.xml().at(element);
+  // Diagnostics about the component (its type, its period) keep pointing at its own profile.
+  if (!instance) execution.where = report.xml().at(element);
+  const SchedPolicy policy_before = execution.policy;
   const Children children = scan(report, element, kSemanticsRules);
   if (instance) {
     // What the component is designed for (its control law is tuned to its period) stays in
@@ -226,10 +228,12 @@ void Loader::read_execution(const Reporter& report, pugi::xml_node element, Comp
   }
   // Real-time policies need a real-time priority; SCHED_OTHER ignores it (OPRoS profiles
   // use it to group components onto shared executors). A subcomponent's own
-  // <execution_semantics> may keep the component profile's priority.
+  // <execution_semantics> may keep the component profile's real-time priority, not take an
+  // SCHED_OTHER grouping number for one.
   if (policy_ok && execution.policy != SchedPolicy::other) {
     const std::string name(sched_policy_name(execution.policy));
-    if (!priority && (execution.priority < kMinRtPriority || execution.priority > kMaxRtPriority)) {
+    if (!priority && (execution.priority < kMinRtPriority || execution.priority > kMaxRtPriority ||
+                      (instance && policy_before == SchedPolicy::other))) {
       report.error(policy, name + " needs a <priority> from " + std::to_string(kMinRtPriority) +
                                " to " + std::to_string(kMaxRtPriority));
     } else if (parse_integer<int>(text_of(priority)) &&
@@ -278,17 +282,13 @@ void Loader::read_execution(const Reporter& report, pugi::xml_node element, Comp
       execution.phase_ms = *value;
     }
   }
-  // Checked on what applies in the end: a subcomponent may change the period or the phase alone.
-  if (execution.phase_ms && is_periodic(execution.type) && period_ok && *execution.phase_ms >= execution.period_ms) {
+  // Checked against the period that applies: a subcomponent's phase against its component's.
+  if (phase && execution.phase_ms && is_periodic(execution.type) && period_ok &&
+      *execution.phase_ms >= execution.period_ms) {
     char text[128];
     std::snprintf(text, sizeof text, "phase %.15g ms is not shorter than the period (%.15g ms)", *execution.phase_ms,
                   execution.period_ms);
-    const std::string message = std::string(text) + ": expected 0 to less than the period";
-    if (phase) {
-      report.error_text(phase, message);
-    } else {
-      report.error(element, message + " (the phase is the component profile's)");
-    }
+    report.error_text(phase, std::string(text) + ": expected 0 to less than the period");
   }
   if (const auto lifecycle = children.one("lifecycle_type")) {
     if (auto value = enum_text(report, lifecycle, kLifecycleTypes, "lifecycle_type")) {

@@ -20,7 +20,7 @@ std::string join(const std::vector<std::string>& items) {
 ExecutionSettings settings_for(const Subcomponent& sub) {
   const ExecutionSemantics& e = sub.profile.execution;
   ExecutionSettings settings;
-  settings.period = Nanos{static_cast<std::int64_t>(e.period_ms * 1e6)};
+  settings.period = Nanos{std::llround(e.period_ms * 1e6)};  // 8.2 ms is 8200000 ns, not 8199999
   settings.policy = e.policy;
   settings.priority = e.priority;
   settings.cpu = e.cpu;

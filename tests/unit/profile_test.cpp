@@ -1037,6 +1037,24 @@ TEST_F(ProfileAliases, AnInstanceDoesNotChangeWhatItsComponentIsDesignedFor) {
       "not shorter than the period (10 ms): expected 0 to less than the period"}));
 }
 
+TEST_F(ProfileAliases, AnInstanceTurnedRealTimeNamesItsPriority) {
+  // The component profile's priority 3 groups SCHED_OTHER components; it is no real-time one.
+  const std::string component =
+      "  <execution_semantics><period>10</period><priority>3</priority></execution_semantics>\n";
+  EXPECT_FALSE(load_component(component, "", "      <execution_semantics><policy>FIFO</policy></execution_semantics>\n")
+                   .has_value());
+  EXPECT_EQ(messages(), (std::vector<std::string>{
+      "app.xml:7:28: /application_profile/subcomponents/subcomponent/execution_semantics/policy: SCHED_FIFO needs "
+      "a <priority> from 1 to 99"}));
+  const auto profile = load_component(
+      component, "", "      <execution_semantics><policy>FIFO</policy><priority>40</priority></execution_semantics>\n");
+  ASSERT_TRUE(profile.has_value()) << ::testing::PrintToString(messages());
+  EXPECT_EQ(profile->execution.policy, SchedPolicy::fifo);
+  EXPECT_EQ(profile->execution.priority, 40);
+  // Where the component is described stays its profile's, for what the model says of it.
+  EXPECT_EQ(fs::path(profile->execution.where.file).filename(), "Comp.xml");
+}
+
 TEST_F(ProfileAliases, SchedulingPolicies) {
   const std::vector<std::pair<std::string, SchedPolicy>> cases = {
       {"SCHED_OTHER", SchedPolicy::other}, {"SCHED_FIFO", SchedPolicy::fifo},

@@ -107,21 +107,42 @@ case_says_why_it_cannot_run() {
 }
 
 case_floating_point_state_survives_switches_in_the_guest() {
-  # Two processes summing doubles at once on the guest's one CPU, switched many times: each
-  # result is the host's to the last bit. Where the host's XSAVE area is too large for the
-  # kernel's (scripts/uml-xstate-shim.c) the guest keeps x87 and SSE state only, and glibc
-  # is told to use no AVX: the caller's own tunables come first.
-  local sum='s = 0.0
-for i in range(1, 2000000): s += 1.0 / i + 1e-9 * (i % 7)
-print(repr(s))'
+  # Sums of doubles in two processes at once, and in two threads of one process (threads of
+  # one guest process share one host process: UML saves and restores their registers itself),
+  # on the guest's one CPU, switched many times: each result is the host's to the last bit.
+  # Where the host's XSAVE area is too large for the kernel (scripts/uml-xstate-shim.c) the
+  # guest keeps x87 and SSE state only and glibc is told to use no AVX, its hwcaps joined to
+  # the caller's.
+  local sum='def total():
+    s = 0.0
+    for i in range(1, 1500000): s += 1.0 / i + 1e-9 * (i % 7)
+    return s
+import sys, threading
+if sys.argv[1] == "threads":
+    out = [None, None]
+    def run(k): out[k] = total()
+    ts = [threading.Thread(target=run, args=(k,)) for k in (0, 1)]
+    [t.start() for t in ts]; [t.join() for t in ts]
+    print(repr(out[0])); print(repr(out[1]))
+else:
+    print(repr(total()))'
   local expected
-  expected=$(/usr/bin/python3 -c "$sum")
-  GLIBC_TUNABLES=glibc.malloc.perturb=0 run_runner -- bash -c '
-    /usr/bin/python3 -c "$1" > "$2/a" & /usr/bin/python3 -c "$1" > "$2/b" & wait
-    cat "$2/a" "$2/b"; echo "tunables=$GLIBC_TUNABLES"' _ "$sum" "$scratch"
+  expected=$(/usr/bin/python3 -c "$sum" one)
+  GLIBC_TUNABLES=glibc.malloc.perturb=0:glibc.cpu.hwcaps=-ERMS run_runner -- bash -c '
+    /usr/bin/python3 -c "$1" one > "$2/a" & /usr/bin/python3 -c "$1" one > "$2/b" &
+    /usr/bin/python3 -c "$1" threads > "$2/c"; wait
+    cat "$2/a" "$2/b" "$2/c"; echo "in=$VCAN_RUN_IN"; echo "tunables=$GLIBC_TUNABLES"' _ "$sum" "$scratch"
   check "exit status 0" [ "$status" -eq 0 ]
-  check "both sums are the host's ($expected)" [ "$(grep -cx -- "$expected" "$scratch/out")" -eq 2 ]
-  check "the caller's glibc tunables first" grep -q "^tunables=glibc.malloc.perturb=0" "$scratch/out"
+  check "all four sums are the host's ($expected)" [ "$(grep -cx -- "$expected" "$scratch/out")" -eq 4 ]
+  local shim=$scratch/shim
+  if grep -qx "in=uml" "$scratch/out" && cc -O2 -o "$shim" "$(dirname "$runner")/uml-xstate-shim.c" &&
+     "$shim" --needed; then
+    check "the caller's tunables with the guest's hwcaps joined to the caller's" grep -qx \
+      "tunables=glibc.malloc.perturb=0:glibc.cpu.hwcaps=-ERMS,-AVX,-AVX2,-AVX512F,-AVX512VL,-AVX512BW,-AVX512DQ,-AVX512CD,-AVX_Fast_Unaligned_Load" \
+      "$scratch/out"
+  else
+    check "the caller's tunables as they are" grep -qx "tunables=glibc.malloc.perturb=0:glibc.cpu.hwcaps=-ERMS" "$scratch/out"
+  fi
 }
 
 case_netns_backend_on_a_kernel_with_vcan() {
