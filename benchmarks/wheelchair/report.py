@@ -197,12 +197,11 @@ def build(run_dir):
     for name, config in configurations.items():
         folder = os.path.join(run_dir, name)
         ks = sorted(int(d) for d in (os.listdir(folder) if os.path.isdir(folder) else []) if d.isdigit())
+        # A run folder from before repetitions: one, in the configuration's folder.
+        rounds = {k: os.path.join(folder, str(k)) for k in ks} or {1: folder}
         by_rep[name] = {}
-        for k in ks:
-            by_rep[name][k], traces_by_rep.setdefault(k, {})[name] = figures(os.path.join(folder, str(k)), config, run, name)
-        if not ks:  # a run folder from before repetitions: one, in the configuration's folder
-            by_rep[name][1], traces_by_rep.setdefault(1, {})[name] = figures(folder, config, run, name)
-    traces = {}
+        for k, path in rounds.items():
+            by_rep[name][k], traces_by_rep.setdefault(k, {})[name] = figures(path, config, run, name)
     for name, reps in by_rep.items():
         k = representative(reps)
         c = dict(reps[k])
@@ -212,8 +211,7 @@ def build(run_dir):
         c["polyport_share_mean_ns_by_repetition"] = {str(j): mean_of(r["polyport_share_ns"]) for j, r in reps.items()}
         result["configurations"][name] = c
     # The traces on the charts: the first repetition's (all configurations closest in time).
-    first = min(traces_by_rep) if traces_by_rep else None
-    traces = traces_by_rep.get(first, {})
+    traces = traces_by_rep[min(traces_by_rep)] if traces_by_rep else {}
     # The bars, over every repetition.
     pairs = {}
     for k, rep_traces in sorted(traces_by_rep.items()):

@@ -188,6 +188,28 @@ TEST(Daemon, CheckPrintsTheResolvedGraph) {
   EXPECT_NE(out.find("members: Joystick Control HW"), std::string::npos) << out;
 }
 
+// `polyportd check APP` (its output, which must say success) and a 0.3 s run of APP: the
+// final statistics' execution contexts, each of which must have run.
+struct ContextsSeen {
+  std::string check_output;
+  nlohmann::json contexts = nlohmann::json::array();
+};
+ContextsSeen check_and_run(const fs::path& app, const std::string& tag) {
+  ContextsSeen seen;
+  Process check = spawn({"check", app.string()}, "check-" + tag);
+  EXPECT_EQ(wait_exit(check), 0) << slurp(check.err);
+  seen.check_output = slurp(scratch("check-" + tag + ".stdout"));
+  const fs::path stats_file = scratch(tag + "-stats.json");
+  Process run = spawn({"run", app.string(), "--duration", "0.3", "--quiet", "--stats-json", stats_file.string()},
+                      "run-" + tag);
+  EXPECT_EQ(wait_exit(run), 0) << slurp(run.err);
+  const nlohmann::json stats = nlohmann::json::parse(slurp(stats_file), nullptr, false);
+  EXPECT_TRUE(stats.contains("execution_contexts")) << slurp(stats_file);
+  if (stats.contains("execution_contexts")) seen.contexts = stats["execution_contexts"];
+  for (const auto& context : seen.contexts) EXPECT_GT(context.value("cycles", 0), 0) << context.dump();
+  return seen;
+}
+
 // The wheelchair with a 200 us spin tail on Joystick only: Joystick gets a context of its own,
 // which check prints and the statistics report.
 TEST(Daemon, ASpinTailGetsAContextOfItsOwnAndIsReported) {
@@ -213,24 +235,13 @@ TEST(Daemon, ASpinTailGetsAContextOfItsOwnAndIsReported) {
              {"components/ControlComp.xml", source_dir + "/profiles/components/ControlComp.xml"},
              {"components/HWComp.xml", source_dir + "/profiles/components/HWComp.xml"}});
 
-  Process check = spawn({"check", app.string()}, "check-spin");
-  EXPECT_EQ(wait_exit(check), 0) << slurp(check.err);
-  const std::string out = slurp(scratch("check-spin.stdout"));
+  const ContextsSeen seen = check_and_run(app, "spin");
+  const std::string& out = seen.check_output;
   EXPECT_NE(out.find("ec-10000us-spin200us  period=10 ms  spin=200 us  members: Joystick\n"), std::string::npos)
       << out;
   EXPECT_NE(out.find("ec-10000us  period=10 ms  members: Control HW\n"), std::string::npos) << out;
-
-  const fs::path stats_file = scratch("spin-stats.json");
-  Process run = spawn({"run", app.string(), "--duration", "0.3", "--quiet", "--stats-json", stats_file.string()},
-                      "run-spin");
-  EXPECT_EQ(wait_exit(run), 0) << slurp(run.err);
-  const nlohmann::json stats = nlohmann::json::parse(slurp(stats_file), nullptr, false);
-  ASSERT_TRUE(stats.contains("execution_contexts")) << slurp(stats_file);
   std::map<std::string, std::int64_t> spin;
-  for (const auto& context : stats["execution_contexts"]) {
-    spin[context.value("name", "")] = context.value("spin_us", -1);
-    EXPECT_GT(context.value("cycles", 0), 0) << context.dump();
-  }
+  for (const auto& context : seen.contexts) spin[context.value("name", "")] = context.value("spin_us", -1);
   EXPECT_EQ(spin, (std::map<std::string, std::int64_t>{{"ec-10000us", 0}, {"ec-10000us-spin200us", 200}}));
 }
 
@@ -254,24 +265,14 @@ TEST(Daemon, SubcomponentPhasesGetContextsOfTheirOwnAndAreReported) {
   const fs::path app = scratch("phase_app.xml");
   std::ofstream(app) << text;
 
-  Process check = spawn({"check", app.string()}, "check-phase");
-  EXPECT_EQ(wait_exit(check), 0) << slurp(check.err);
-  const std::string out = slurp(scratch("check-phase.stdout"));
+  const ContextsSeen seen = check_and_run(app, "phase");
+  const std::string& out = seen.check_output;
   EXPECT_NE(out.find("ec-10000us-phase3000us  period=10 ms  phase=3 ms  members: Joystick\n"), std::string::npos) << out;
   EXPECT_NE(out.find("ec-10000us-phase6500us  period=10 ms  phase=6.5 ms  members: Control\n"), std::string::npos) << out;
   EXPECT_NE(out.find("ec-10000us  period=10 ms  members: HW\n"), std::string::npos) << out;
 
-  const fs::path stats_file = scratch("phase-stats.json");
-  Process run = spawn({"run", app.string(), "--duration", "0.3", "--quiet", "--stats-json", stats_file.string()},
-                      "run-phase");
-  EXPECT_EQ(wait_exit(run), 0) << slurp(run.err);
-  const nlohmann::json stats = nlohmann::json::parse(slurp(stats_file), nullptr, false);
-  ASSERT_TRUE(stats.contains("execution_contexts")) << slurp(stats_file);
   std::map<std::string, nlohmann::json> phase;
-  for (const auto& context : stats["execution_contexts"]) {
-    phase[context.value("name", "")] = context["phase_ns"];
-    EXPECT_GT(context.value("cycles", 0), 0) << context.dump();
-  }
+  for (const auto& context : seen.contexts) phase[context.value("name", "")] = context["phase_ns"];
   EXPECT_EQ(phase, (std::map<std::string, nlohmann::json>{{"ec-10000us", nullptr},
                                                           {"ec-10000us-phase3000us", 3'000'000},
                                                           {"ec-10000us-phase6500us", 6'500'000}}));

@@ -888,6 +888,12 @@ class ProfileAliases : public ::testing::Test {
 
   std::vector<std::string> messages() const { return rendered(diagnostics_, dir_); }
 
+  // The messages of a component (and instance) that must not load.
+  std::vector<std::string> refused(const std::string& text, const std::string& instance = "") {
+    EXPECT_FALSE(load_component(text, "", instance).has_value());
+    return messages();
+  }
+
   static void write(const fs::path& file, const std::string& text) {
     std::ofstream out(file, std::ios::binary);
     out << text;
@@ -983,16 +989,13 @@ TEST_F(ProfileAliases, PhaseErrors) {
   for (const auto& [text, column] : std::vector<std::pair<std::string, std::string>>{
            {"-1", "50"}, {"soon", "50"}, {"", "43"}}) {
     SCOPED_TRACE(text);
-    EXPECT_FALSE(load_component("  <execution_semantics><period>10</period><phase>" + text +
-                                "</phase></execution_semantics>\n")
-                     .has_value());
-    EXPECT_EQ(messages(), (std::vector<std::string>{
+    EXPECT_EQ(refused("  <execution_semantics><period>10</period><phase>" + text + "</phase></execution_semantics>\n"),
+              (std::vector<std::string>{
         "Comp.xml:4:" + column + ": /component_profile/execution_semantics/phase: bad phase '" + text +
         "': expected a number of milliseconds, 0 or more"}));
   }
-  EXPECT_FALSE(load_component("  <execution_semantics><period>2.5</period><phase>2.5</phase></execution_semantics>\n")
-                   .has_value());
-  EXPECT_EQ(messages(), (std::vector<std::string>{
+  EXPECT_EQ(refused("  <execution_semantics><period>2.5</period><phase>2.5</phase></execution_semantics>\n"),
+            (std::vector<std::string>{
       "Comp.xml:4:51: /component_profile/execution_semantics/phase: phase 2.5 ms is not shorter than the "
       "period (2.5 ms): expected 0 to less than the period"}));
 }
@@ -1021,18 +1024,15 @@ TEST_F(ProfileAliases, AnInstanceSetsItsPhaseAndSchedulingOverItsComponentProfil
 }
 
 TEST_F(ProfileAliases, AnInstanceDoesNotChangeWhatItsComponentIsDesignedFor) {
-  EXPECT_FALSE(load_component("  <execution_semantics><period>10</period></execution_semantics>\n", "",
-                              "      <execution_semantics><period>5</period><phase>1</phase></execution_semantics>\n")
-                   .has_value());
-  EXPECT_EQ(messages(), (std::vector<std::string>{
+  const std::string component = "  <execution_semantics><period>10</period></execution_semantics>\n";
+  EXPECT_EQ(refused(component, "      <execution_semantics><period>5</period><phase>1</phase></execution_semantics>\n"),
+            (std::vector<std::string>{
       "app.xml:7:28: /application_profile/subcomponents/subcomponent/execution_semantics/period: <period> belongs "
       "in the component profile; a subcomponent's <execution_semantics> sets only phase, priority, policy, cpu "
       "(cpu_affinity) and spin_us"}));
   // The instance's phase is checked against the component's period, where the instance wrote it.
-  EXPECT_FALSE(load_component("  <execution_semantics><period>10</period></execution_semantics>\n", "",
-                              "      <execution_semantics><phase>12</phase></execution_semantics>\n")
-                   .has_value());
-  EXPECT_EQ(messages(), (std::vector<std::string>{
+  EXPECT_EQ(refused(component, "      <execution_semantics><phase>12</phase></execution_semantics>\n"),
+            (std::vector<std::string>{
       "app.xml:7:35: /application_profile/subcomponents/subcomponent/execution_semantics/phase: phase 12 ms is "
       "not shorter than the period (10 ms): expected 0 to less than the period"}));
 }
@@ -1041,9 +1041,8 @@ TEST_F(ProfileAliases, AnInstanceTurnedRealTimeNamesItsPriority) {
   // The component profile's priority 3 groups SCHED_OTHER components; it is no real-time one.
   const std::string component =
       "  <execution_semantics><period>10</period><priority>3</priority></execution_semantics>\n";
-  EXPECT_FALSE(load_component(component, "", "      <execution_semantics><policy>FIFO</policy></execution_semantics>\n")
-                   .has_value());
-  EXPECT_EQ(messages(), (std::vector<std::string>{
+  EXPECT_EQ(refused(component, "      <execution_semantics><policy>FIFO</policy></execution_semantics>\n"),
+            (std::vector<std::string>{
       "app.xml:7:28: /application_profile/subcomponents/subcomponent/execution_semantics/policy: SCHED_FIFO needs "
       "a <priority> from 1 to 99"}));
   const auto profile = load_component(

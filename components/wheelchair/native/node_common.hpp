@@ -55,6 +55,7 @@ struct NodeOptions {
   std::string role;
   int period_ms = 10;
   std::optional<double> phase_ms;  // the loop's place in the period; none: a period from start
+  std::optional<std::int64_t> phase_ns;  // phase_ms as parse_node_options checked it
   std::string interface = "vcan0";
   std::string summary;
   int domain = 0;
@@ -80,8 +81,7 @@ inline std::optional<int> parse_node_options(CLI::App& app, NodeOptions& options
     const int code = app.exit(e);
     return code == 0 ? kExitOk : kExitUsage;
   }
-  std::optional<std::int64_t> phase_ns;
-  if (!wc::timer_phase(options.program, options.phase_ms, options.period_ms, phase_ns)) return kExitUsage;
+  if (!wc::timer_phase(options.program, options.phase_ms, options.period_ms, options.phase_ns)) return kExitUsage;
   return std::nullopt;
 }
 
@@ -94,9 +94,7 @@ struct LoopStats {
 // Runs `step` at every deadline until a stop signal; the signal is seen at the next wake.
 template <class Step>
 inline void run_periodic(const NodeOptions& options, LoopStats& stats, Step&& step) {
-  std::optional<std::int64_t> phase_ns;
-  wc::timer_phase(options.program, options.phase_ms, options.period_ms, phase_ns);  // checked by parse_node_options
-  wc::PeriodicTimer timer(static_cast<std::int64_t>(options.period_ms) * 1'000'000, phase_ns);
+  wc::PeriodicTimer timer(static_cast<std::int64_t>(options.period_ms) * 1'000'000, options.phase_ns);
   while (!g_stop.load(std::memory_order_relaxed)) {
     stats.lateness.add(timer.wait());
     if (g_stop.load(std::memory_order_relaxed)) break;
