@@ -40,6 +40,7 @@ class DdsAdaptor final : public Component {
     std::string type_name;  // DDS type name, as idlc / fastddsgen spell it ("module::Struct")
     DdsQos qos;
     std::uint32_t max_size = 0;  // largest encoded sample, header included
+    bool bounded = false;        // no unbounded member: max_size is the type's own bound
     DataOutPort* out = nullptr;  // set for `output` ports (the application publishes)
     DataInPort* in = nullptr;    // set for `input` ports (polyport publishes)
   };

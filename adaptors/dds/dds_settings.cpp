@@ -33,6 +33,7 @@ const std::vector<ElementRule> kQosRules = {
     {"liveliness", {"liveliness"}},
     {"lease", {"lease_ms"}},
     {"partition", {"partition"}, true},
+    {"data_sharing", {"data_sharing"}},
 };
 constexpr Spelling<DdsQos::Reliability> kReliabilities[] = {
     {"reliable", DdsQos::Reliability::reliable},
@@ -51,12 +52,16 @@ constexpr Spelling<DdsQos::Liveliness> kLivelinesses[] = {
     {"manual_by_participant", DdsQos::Liveliness::manual_by_participant},
     {"manual_by_topic", DdsQos::Liveliness::manual_by_topic},
 };
+constexpr Spelling<DdsQos::DataSharing> kDataSharings[] = {
+    {"auto", DdsQos::DataSharing::automatic},
+    {"off", DdsQos::DataSharing::off},
+};
 // DDS domain ids: 0..232 (the RTPS port mapping with its default parameters).
 constexpr std::uint32_t kMaxDomain = 232;
 
 // <qos>: each child present overrides that field of `qos` (the component's defaults, or
 // the model's).
-void read_qos(const ProfileElement& element, DdsQos& qos) {
+void read_qos(const ProfileElement& element, std::string_view model, DdsQos& qos) {
   const ProfileChildren children = element.children(kQosRules);
   if (const auto node = children.one("reliability")) {
     if (auto value = enum_text(node, kReliabilities, "reliability")) qos.reliability = *value;
@@ -90,6 +95,15 @@ void read_qos(const ProfileElement& element, DdsQos& qos) {
   }
   if (!children.all("partition").empty()) qos.partitions.clear();  // a port's list replaces the component's
   for (const ProfileElement& node : children.all("partition")) qos.partitions.push_back(node.text());
+  if (const auto node = children.one("data_sharing")) {
+    if (auto value = enum_text(node, kDataSharings, "data_sharing")) {
+      if (model == "fastdds") {
+        qos.data_sharing = *value;
+      } else {
+        node.warning("data_sharing is a Fast DDS setting: ignored");
+      }
+    }
+  }
   if (qos.deadline_ns && qos.lifespan_ns && *qos.lifespan_ns < *qos.deadline_ns) {
     // Legal in DDS, but samples then expire before the next is due: say so.
     element.warning("lifespan_ms is shorter than deadline_ms: readers may miss every deadline");
@@ -126,7 +140,7 @@ class DdsReader final : public ComponentSectionReader {
         }
       }
     }
-    if (const auto qos = children.one("qos")) read_qos(qos, settings_->qos);
+    if (const auto qos = children.one("qos")) read_qos(qos, model_, settings_->qos);
     read_call_limits(children, *settings_);
     settings_->receive_threads = read_receive_thread(children);
     if (const ProfileElement thread = children.one("receive_thread"); thread && settings_->receive_threads) {
@@ -147,7 +161,7 @@ class DdsReader final : public ComponentSectionReader {
       settings.topic = topic.text();
       if (settings.topic.empty()) topic.error("empty <topic>");
     }
-    if (const auto qos = elements.one("qos")) read_qos(qos, settings.qos);
+    if (const auto qos = elements.one("qos")) read_qos(qos, model_, settings.qos);
     settings_->ports.emplace(port.name, std::move(settings));  // a repeated name: the first counts
   }
 

@@ -31,6 +31,7 @@ struct DdsQos {
   enum class Durability : std::uint8_t { volatile_, transient_local };
   enum class History : std::uint8_t { keep_last, keep_all };
   enum class Liveliness : std::uint8_t { automatic, manual_by_participant, manual_by_topic };
+  enum class DataSharing : std::uint8_t { automatic, off };
   Reliability reliability = Reliability::reliable;
   Durability durability = Durability::volatile_;
   History history = History::keep_last;
@@ -40,6 +41,11 @@ struct DdsQos {
   Liveliness liveliness = Liveliness::automatic;
   std::optional<std::int64_t> lease_ns;     // nullopt: infinite
   std::vector<std::string> partitions;      // empty: the default ("") partition
+  // Fast DDS only (Cyclone DDS warns and ignores it): automatic lets an endpoint of a
+  // bounded, keyless type share samples in memory with a peer on this host that can too
+  // (Fast DDS's data sharing, its AUTO kind); off never does (e.g. containers that do not
+  // share /dev/shm but look like one host to Fast DDS).
+  DataSharing data_sharing = DataSharing::automatic;
 
   bool operator==(const DdsQos&) const = default;
 };

@@ -29,24 +29,6 @@ Status status_from_wire(std::int32_t code) noexcept {
   return status;
 }
 
-// Unbounded strings and sequences live in a sample's tail, which a service call does not
-// carry (a call's payload is the type's fixed part).
-bool has_tail(const Type& type) {
-  const Type& t = type.resolved();
-  switch (t.kind) {
-    case TypeKind::string:
-    case TypeKind::sequence:
-      if (t.bound == 0) return true;
-      return t.element != nullptr && has_tail(*t.element);
-    case TypeKind::array:
-      return t.element != nullptr && has_tail(*t.element);
-    case TypeKind::structure:
-      return std::any_of(t.fields.begin(), t.fields.end(), [](const Field& f) { return has_tail(*f.type); });
-    default:
-      return false;
-  }
-}
-
 void buffers_for(CallSlot& slot, const RpcService& service, bool reply) {
   std::uint32_t flat = 1;
   std::uint32_t wire = 1;
@@ -97,7 +79,9 @@ std::string check_rpc_struct(const Type* wire_type, std::string_view header_name
     if (payload == nullptr || &wire.fields[1].type->resolved() != &payload->resolved()) {
       return "must be " + shape + " (its second member is a '" + wire.fields[1].type->name + "')";
     }
-    if (has_tail(*payload)) {
+    // Unbounded members live in a sample's tail, which a call does not carry (its payload
+    // is the type's fixed part).
+    if (has_unbounded(*payload)) {
       return "carries '" + payload_name +
              "', which has an unbounded string or sequence; service payloads must be bounded";
     }

@@ -350,6 +350,23 @@ bool is_number(TypeKind kind) noexcept {
   }
 }
 
+bool has_unbounded(const Type& type) noexcept {
+  const Type& t = type.resolved();
+  switch (t.kind) {
+    case TypeKind::string:
+    case TypeKind::sequence:
+      if (t.bound == 0) return true;
+      return t.element != nullptr && has_unbounded(*t.element);
+    case TypeKind::array:
+      return t.element != nullptr && has_unbounded(*t.element);
+    case TypeKind::structure:
+      return std::any_of(t.fields.begin(), t.fields.end(),
+                         [](const Field& f) { return f.type != nullptr && has_unbounded(*f.type); });
+    default:
+      return false;
+  }
+}
+
 bool Type::is_primitive() const noexcept {
   return kind >= TypeKind::boolean && kind <= TypeKind::float64;
 }

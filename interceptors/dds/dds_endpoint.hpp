@@ -37,6 +37,10 @@ struct EndpointSpec {
   std::string type_name;     // no leading "::"
   DdsQos qos;
   std::uint32_t max_size = 0;  // the largest sample, header included
+  // The type has no unbounded string or sequence, so max_size is its own largest encoding,
+  // not a cap polyport chose: an SDK may preallocate or share memory of that size (Fast DDS's
+  // data sharing with a peer on this host, raw_type.hpp).
+  bool bounded = false;
 };
 
 // `cdr` is valid only during the call. `source_timestamp`: the writer's DDS source timestamp

@@ -112,7 +112,7 @@ Result<void> DdsInterceptor::start() {
   };
   for (std::size_t i = 0; i < topics.size(); ++i) {
     const DdsAdaptor::Topic& topic = topics[i];
-    const EndpointSpec spec{topic.topic, topic.type_name, topic.qos, topic.max_size};
+    const EndpointSpec spec{topic.topic, topic.type_name, topic.qos, topic.max_size, topic.bounded};
     if (topic.out != nullptr) {
       DataOutPort* port = topic.out;
       auto reader = domain_->create_reader(spec, [port](const std::byte* cdr, std::uint32_t size, MonoTime source) {

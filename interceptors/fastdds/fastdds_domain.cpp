@@ -55,7 +55,8 @@ class FastddsDomain final : public dds::Domain {
   std::uint32_t id() const noexcept override { return participant_->domain_id(); }
 
   Result<std::unique_ptr<dds::Writer>> create_writer(const dds::EndpointSpec& spec) override {
-    auto writer = RawWriter::create(*participant_, spec.topic, spec.type_name, spec.qos, max_size_of(spec));
+    auto writer =
+        RawWriter::create(*participant_, spec.topic, spec.type_name, spec.qos, max_size_of(spec), spec.bounded);
     if (!writer) return writer.error();
     return std::unique_ptr<dds::Writer>(
         std::make_unique<FastddsWriter>(std::move(writer).value(), own_writers(spec.topic)));
@@ -71,7 +72,7 @@ class FastddsDomain final : public dds::Domain {
           callback(cdr, size, source);
           counter->fetch_add(1, std::memory_order_relaxed);
         },
-        max_size_of(spec), false, own_writers(spec.topic));
+        max_size_of(spec), false, own_writers(spec.topic), spec.bounded);
     if (!reader) return reader.error();
     return std::unique_ptr<dds::Reader>(std::make_unique<CountedReader>(std::move(reader).value(), counter));
   }

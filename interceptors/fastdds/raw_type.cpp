@@ -69,8 +69,8 @@ std::string describe(const std::exception& e) { return e.what(); }
 
 // ---- RawType ------------------------------------------------------------------------------
 
-RawType::RawType(const std::string& type_name, std::uint32_t max_size, bool keyed)
-    : max_size_(max_size) {
+RawType::RawType(const std::string& type_name, std::uint32_t max_size, bool keyed, bool bounded)
+    : max_size_(max_size), bounded_(bounded) {
   setName(type_name.c_str());
   // Fast DDS sizes each pooled payload from m_typeSize; the generated types add the same
   // 4 header bytes into it, so this is the payload limit header included.
@@ -219,12 +219,14 @@ Participant::~Participant() {
 
 Result<dds::Topic*> Participant::raw_topic(const std::string& topic_name,
                                            const std::string& type_name, std::uint32_t max_size,
-                                           bool keyed) {
+                                           bool keyed, bool bounded) {
   std::lock_guard lock(topics_mutex_);
   try {
     dds::TypeSupport existing = participant_->find_type(type_name);
     if (existing.empty()) {
-      dds::TypeSupport type(new RawType(type_name, max_size, keyed));
+      // The first endpoint of a name registers it; later ones share what it registered
+      // (a bounded name stays bounded: every endpoint of one IDL type asks the same).
+      dds::TypeSupport type(new RawType(type_name, max_size, keyed, bounded));
       if (type.register_type(participant_) != ReturnCode_t::RETCODE_OK) {
         return make_error("fastdds: cannot register type " + type_name);
       }
@@ -278,8 +280,9 @@ eprosima::fastrtps::Duration_t duration(const std::optional<std::int64_t>& ns) {
                                         static_cast<std::uint32_t>(value % 1'000'000'000));
 }
 
+// `shares_memory` (shares_memory() below): data sharing where the peer can too, else none.
 template <class EndpointQos>
-void apply(const DdsQos& in, EndpointQos& out) {
+void apply(const DdsQos& in, bool shares_memory, EndpointQos& out) {
   out.reliability().kind = in.reliability == DdsQos::Reliability::reliable
                                ? dds::RELIABLE_RELIABILITY_QOS
                                : dds::BEST_EFFORT_RELIABILITY_QOS;
@@ -313,8 +316,20 @@ void apply(const DdsQos& in, EndpointQos& out) {
     const std::int64_t lease = std::max<std::int64_t>(*in.lease_ns, 3);
     out.liveliness().announcement_period = duration(lease / 3);
   }
-  // Data sharing: off, explicitly (raw_type.hpp says why) rather than by AUTO's silent fallback.
-  out.data_sharing().off();
+  // Data sharing (raw_type.hpp): AUTO only where it can work, else off, explicitly.
+  if (shares_memory) {
+    out.data_sharing().automatic();
+  } else {
+    out.data_sharing().off();
+  }
+}
+
+// Whether an endpoint of `type_name` (registered by raw_topic) may share samples in memory:
+// the registered type is bounded and keyless and the QoS allows it.
+bool shares_memory(const Participant& participant, const std::string& type_name, const DdsQos& qos) {
+  if (qos.data_sharing != DdsQos::DataSharing::automatic) return false;
+  const auto* type = dynamic_cast<const RawType*>(participant.native()->find_type(type_name).get());
+  return type != nullptr && type->bounded() && !type->m_isGetKeyDefined;
 }
 
 template <class GroupQos>
@@ -329,8 +344,8 @@ void apply_partitions(const DdsQos& in, GroupQos& out) {
 Result<std::unique_ptr<RawWriter>> RawWriter::create(Participant& participant,
                                                      const std::string& topic_name,
                                                      const std::string& type_name, const DdsQos& qos,
-                                                     std::uint32_t max_size) {
-  Result<dds::Topic*> topic = participant.raw_topic(topic_name, type_name, max_size);
+                                                     std::uint32_t max_size, bool bounded) {
+  Result<dds::Topic*> topic = participant.raw_topic(topic_name, type_name, max_size, false, bounded);
   if (!topic) return topic.error();  // also when type_name is registered keyed (see getKey)
   std::unique_ptr<RawWriter> writer(new RawWriter());
   writer->participant_ = &participant;
@@ -341,7 +356,7 @@ Result<std::unique_ptr<RawWriter>> RawWriter::create(Participant& participant,
     writer->publisher_ = participant.native()->create_publisher(publisher_qos);
     if (writer->publisher_ == nullptr) return make_error("fastdds: cannot create a publisher");
     dds::DataWriterQos writer_qos = dds::DATAWRITER_QOS_DEFAULT;
-    apply(qos, writer_qos);
+    apply(qos, shares_memory(participant, type_name, qos), writer_qos);
     writer->writer_ = writer->publisher_->create_datawriter(topic.value(), writer_qos);
     if (writer->writer_ == nullptr) {
       return make_error("fastdds: cannot create a writer on " + topic_name);
@@ -419,9 +434,10 @@ Result<std::unique_ptr<RawReader>> RawReader::create(Participant& participant,
                                                      const std::string& type_name, const DdsQos& qos,
                                                      Callback callback, std::uint32_t max_size,
                                                      bool keyed,
-                                                     std::shared_ptr<const polyport::dds::OwnWriters> own) {
+                                                     std::shared_ptr<const polyport::dds::OwnWriters> own,
+                                                     bool bounded) {
   if (!callback) return make_error("fastdds: reader on " + topic_name + " without a callback");
-  Result<dds::Topic*> topic = participant.raw_topic(topic_name, type_name, max_size, keyed);
+  Result<dds::Topic*> topic = participant.raw_topic(topic_name, type_name, max_size, keyed, bounded);
   if (!topic) return topic.error();
   std::unique_ptr<RawReader> reader(new RawReader());
   reader->participant_ = &participant;
@@ -440,7 +456,7 @@ Result<std::unique_ptr<RawReader>> RawReader::create(Participant& participant,
     reader->subscriber_ = participant.native()->create_subscriber(subscriber_qos);
     if (reader->subscriber_ == nullptr) return make_error("fastdds: cannot create a subscriber");
     dds::DataReaderQos reader_qos = dds::DATAREADER_QOS_DEFAULT;
-    apply(qos, reader_qos);
+    apply(qos, shares_memory(participant, type_name, qos), reader_qos);
     // The listener is attached at creation, so no sample arrives before it is in place.
     reader->reader_ = reader->subscriber_->create_datareader(
         topic.value(), reader_qos, reader->listener_.get(), dds::StatusMask::data_available());

@@ -66,8 +66,13 @@ class RawType final : public eprosima::fastdds::dds::TopicDataType {
   // nothing matches. A keyed raw type cannot compute instance handles from raw bytes (it
   // does not know which members are the key), so it is for readers only, and files every
   // sample under one instance (see getKey in raw_type.cpp for what that loses).
-  RawType(const std::string& type_name, std::uint32_t max_size, bool keyed = false);
+  // `bounded`: max_size is the type's own largest encoding (no unbounded string or sequence),
+  // which makes Fast DDS treat the type as bounded: endpoints of a bounded keyless type may
+  // then share samples in memory with peers on this host (data sharing, below).
+  RawType(const std::string& type_name, std::uint32_t max_size, bool keyed = false, bool bounded = false);
   ~RawType() override;
+
+  bool is_bounded() const override { return bounded_; }
 
   bool serialize(void* data, eprosima::fastrtps::rtps::SerializedPayload_t* payload) override;
   bool deserialize(eprosima::fastrtps::rtps::SerializedPayload_t* payload, void* data) override;
@@ -78,12 +83,14 @@ class RawType final : public eprosima::fastdds::dds::TopicDataType {
               bool force_md5 = false) override;
 
   std::uint32_t max_size() const noexcept { return max_size_; }
+  bool bounded() const noexcept { return bounded_; }
   // Samples refused: larger than the reading side's storage, or shorter than the header.
   // Fast DDS drops them (and logs); this is the only place polyport can count them.
   std::uint64_t refused() const noexcept { return refused_.load(std::memory_order_relaxed); }
 
  private:
   std::uint32_t max_size_;
+  bool bounded_;
   std::atomic<std::uint64_t> refused_{0};
 };
 
@@ -106,12 +113,15 @@ class RawType final : public eprosima::fastdds::dds::TopicDataType {
 //    profile of the file FASTRTPS_DEFAULT_PROFILES_FILE names (or DEFAULT_FASTRTPS_PROFILES.xml
 //    in the working directory), which Fast DDS loads by itself, else its built-in transports
 //    (SHM + UDPv4 on every interface: not restricted to this host). `name` is not used.
-// Data sharing is switched off on every raw endpoint. Fast DDS 2.9 shares samples in memory
-// only for keyless types that declare themselves bounded (TopicDataType::is_bounded) with a
-// preallocated history, each pool slot then being the type's maximum size; RawType declares
-// no bound. A bounded IDL type could declare one (max_size is known), which would let polyport
-// share memory with generated applications: not done, and on this VM data sharing did not make
-// a direct hop faster (README, Benchmarks).
+// Data sharing (Fast DDS 2.9 moves a sample through a shared-memory pool of the writer's
+// instead of a transport, for keyless types that declare themselves bounded, between endpoints
+// on one host): a raw endpoint uses it, as Fast DDS's AUTO kind does, when its type is bounded
+// (RawType's `bounded`: an IDL type without unbounded strings or sequences, whose largest
+// encoding is then each pool slot's size), keyless, and its DdsQos allows it (data_sharing,
+// default automatic); the peer decides too (fastddsgen's code for a bounded type uses it by
+// default). Why: on one core, a hop between a generated application and a raw endpoint cost
+// 3-8 us more one-way without it than the same hop between two generated endpoints with it
+// (README, Benchmarks). Else samples go over the participant's transports.
 enum class Transport : std::uint8_t { udp_loopback, shm, shm_and_udp_loopback, fastdds_defaults };
 
 struct ParticipantOptions {
@@ -150,7 +160,8 @@ class Participant {
   // creates the topic.
   Result<eprosima::fastdds::dds::Topic*> raw_topic(const std::string& topic_name,
                                                    const std::string& type_name,
-                                                   std::uint32_t max_size, bool keyed = false);
+                                                   std::uint32_t max_size, bool keyed = false,
+                                                   bool bounded = false);
 
  private:
   Participant() = default;
@@ -164,7 +175,8 @@ class RawWriter {
   static Result<std::unique_ptr<RawWriter>> create(Participant& participant,
                                                    const std::string& topic_name,
                                                    const std::string& type_name, const DdsQos& qos,
-                                                   std::uint32_t max_size = kDefaultMaxPayload);
+                                                   std::uint32_t max_size = kDefaultMaxPayload,
+                                                   bool bounded = false);
   ~RawWriter();
   RawWriter(const RawWriter&) = delete;
   RawWriter& operator=(const RawWriter&) = delete;
@@ -199,7 +211,8 @@ class RawReader {
                                                    Callback callback,
                                                    std::uint32_t max_size = kDefaultMaxPayload,
                                                    bool keyed = false,
-                                                   std::shared_ptr<const polyport::dds::OwnWriters> own = nullptr);
+                                                   std::shared_ptr<const polyport::dds::OwnWriters> own = nullptr,
+                                                   bool bounded = false);
   ~RawReader();
   RawReader(const RawReader&) = delete;
   RawReader& operator=(const RawReader&) = delete;

@@ -466,5 +466,31 @@ TEST_F(ServiceBridge, WrongRequestStructIsReportedAtTheOperation) {
       << text;
 }
 
+// Data ports: a type without unbounded members is marked bounded (its largest encoding is
+// the topic's max_size, which lets Fast DDS share its samples in memory, raw_type.hpp); one
+// with an unbounded string is not.
+TEST_F(ServiceBridge, DataTopicsOfBoundedTypesAreMarkedBounded) {
+  Subcomponent sub;
+  sub.name = "app";
+  sub.profile.model = "fastdds";
+  sub.profile.model_settings = std::make_shared<dds::DdsSettings>();
+  for (const char* type : {"calc::Pose", "calc::Note"}) {
+    PortSpec port;
+    port.name = type + 6;  // "Pose", "Note"
+    port.kind = PortKind::data;
+    port.direction = PortDirection::output;
+    port.data_type = type;
+    sub.profile.ports.push_back(port);
+  }
+  auto made = dds::DdsAdaptor::create(sub, types, diagnostics);
+  ASSERT_TRUE(made) << text_of(diagnostics);
+  ASSERT_EQ(made->topics().size(), 2u);
+  EXPECT_TRUE(made->topics()[0].bounded);
+  // id, x, string<16> frame: 4 + 4 (align) + 8 + 4 + 17, after the 4-byte header.
+  EXPECT_GE(made->topics()[0].max_size, 41u);
+  EXPECT_LT(made->topics()[0].max_size, 64u);
+  EXPECT_FALSE(made->topics()[1].bounded);
+}
+
 }  // namespace
 }  // namespace polyport

@@ -83,24 +83,30 @@ demo::Pose pose(std::uint32_t seq, const std::string& frame = "map") {
   return p;
 }
 
-Bytes encode(const demo::Pose& p) {
-  demo::PosePubSubType type;
-  auto* data = const_cast<demo::Pose*>(&p);
+// CDR of any generated type, made and read by its own PubSubType.
+template <class PubSub, class T>
+Bytes encode_as(const T& value) {
+  PubSub type;
+  auto* data = const_cast<T*>(&value);
   rtps::SerializedPayload_t payload(type.getSerializedSizeProvider(data)());
   if (!type.serialize(data, &payload)) throw std::runtime_error("generated serialize failed");
   const auto* bytes = reinterpret_cast<const std::byte*>(payload.data);
   return Bytes(bytes, bytes + payload.length);
 }
 
-demo::Pose decode(const Bytes& bytes) {
-  demo::PosePubSubType type;
+template <class PubSub, class T>
+T decode_as(const Bytes& bytes) {
+  PubSub type;
   rtps::SerializedPayload_t payload(static_cast<std::uint32_t>(bytes.size()));
   std::memcpy(payload.data, bytes.data(), bytes.size());
   payload.length = static_cast<std::uint32_t>(bytes.size());
-  demo::Pose p;
-  if (!type.deserialize(&payload, &p)) throw std::runtime_error("generated deserialize failed");
-  return p;
+  T value;
+  if (!type.deserialize(&payload, &value)) throw std::runtime_error("generated deserialize failed");
+  return value;
 }
+
+Bytes encode(const demo::Pose& p) { return encode_as<demo::PosePubSubType>(p); }
+demo::Pose decode(const Bytes& bytes) { return decode_as<demo::PosePubSubType, demo::Pose>(bytes); }
 
 void expect_pose(const demo::Pose& want, const demo::Pose& got) {
   EXPECT_EQ(want.seq(), got.seq());
@@ -141,6 +147,7 @@ class GeneratedPeer : public fdds::DomainParticipantListener {
         static_cast<fdds::DomainId_t>(domain), fdds::PARTICIPANT_QOS_DEFAULT, this, fdds::StatusMask::none());
     if (participant_ == nullptr) return;
     type_.register_type(participant_);
+    sized_type_.register_type(participant_);
   }
   ~GeneratedPeer() override {
     if (participant_ == nullptr) return;
@@ -149,11 +156,23 @@ class GeneratedPeer : public fdds::DomainParticipantListener {
   }
   bool ok() const { return participant_ != nullptr; }
 
-  fdds::Topic* topic(const std::string& name) {
+  // A topic of demo::Pose, or of `type_name` (demo::Sized).
+  fdds::Topic* topic(const std::string& name, const std::string& type_name = kType) {
     if (fdds::TopicDescription* found = participant_->lookup_topicdescription(name)) {
       return dynamic_cast<fdds::Topic*>(found);
     }
-    return participant_->create_topic(name, type_.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+    return participant_->create_topic(name, type_name, fdds::TOPIC_QOS_DEFAULT);
+  }
+  // demo::Sized endpoints at the generated code's defaults (data sharing AUTO), reliable.
+  fdds::DataWriter* sized_writer(const std::string& topic_name) {
+    fdds::Publisher* publisher = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+    return publisher == nullptr ? nullptr
+                                : publisher->create_datawriter(topic(topic_name, "demo::Sized"), fdds::DATAWRITER_QOS_DEFAULT);
+  }
+  fdds::DataReader* sized_reader(const std::string& topic_name) {
+    fdds::Subscriber* subscriber = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
+    return subscriber == nullptr ? nullptr
+                                 : subscriber->create_datareader(topic(topic_name, "demo::Sized"), reliable_reader());
   }
 
   fdds::DataWriter* writer(const std::string& topic_name, fdds::DataWriterQos qos = fdds::DATAWRITER_QOS_DEFAULT,
@@ -246,6 +265,7 @@ class GeneratedPeer : public fdds::DomainParticipantListener {
  private:
   fdds::DomainParticipant* participant_ = nullptr;
   fdds::TypeSupport type_{new demo::PosePubSubType()};
+  fdds::TypeSupport sized_type_{new demo::SizedPubSubType()};
   std::mutex mutex_;
   std::map<polyport::dds::Guid, fdds::WriterQos> writers_;
   std::map<std::string, fdds::ReaderQos> readers_;  // by topic
@@ -361,6 +381,104 @@ TEST_F(FastddsDomain, WriterToGeneratedReaderAndBack) {
   std::lock_guard lock(inbox.mutex);
   ASSERT_EQ(inbox.samples.size(), 1u);
   expect_pose(back, decode(inbox.samples[0]));
+}
+
+// ---- data sharing ---------------------------------------------------------------------------
+
+// demo::Sized is bounded: its endpoints (spec.bounded, as the DDS adaptor sets it for a type
+// without unbounded members) announce data sharing, and samples go both ways with a generated
+// application whose endpoints do too (Fast DDS then moves them through the writer's
+// shared-memory pool).
+polyport::dds::EndpointSpec sized_spec(const std::string& topic, DdsQos qos = {}) {
+  return polyport::dds::EndpointSpec{topic, "demo::Sized", std::move(qos), 128, true};
+}
+
+demo::Sized sized(std::uint32_t seq) {
+  demo::Sized s;
+  s.seq(seq);
+  s.values({1.5, -2.0, 0.25, static_cast<double>(seq)});
+  s.label("wheel_left");
+  s.readings({static_cast<short>(seq), -7});
+  return s;
+}
+
+TEST_F(FastddsDomain, BoundedTypeSharesMemoryWithAGeneratedApplication) {
+  auto dom = domain(167);
+  ASSERT_NE(dom, nullptr);
+  GeneratedPeer peer(167);
+  ASSERT_TRUE(peer.ok());
+
+  fdds::DataReader* app_reader = peer.sized_reader("polyport_test/sized_out");
+  ASSERT_NE(app_reader, nullptr);
+  auto writer = dom->create_writer(sized_spec("polyport_test/sized_out"));
+  ASSERT_TRUE(writer.ok()) << writer.error().message;
+  Inbox inbox;
+  auto reader = dom->create_reader(sized_spec("polyport_test/sized_in"), inbox.callback());
+  ASSERT_TRUE(reader.ok()) << reader.error().message;
+  fdds::DataWriter* app_writer = peer.sized_writer("polyport_test/sized_in");
+  ASSERT_NE(app_writer, nullptr);
+  ASSERT_TRUE(eventually([&] {
+    return writer.value()->matched_readers() == 1 && GeneratedPeer::matched(app_reader) == 1 &&
+           reader.value()->matched_writers() == 1 && GeneratedPeer::matched(app_writer) == 1;
+  }));
+
+  // What polyport's endpoints announced: the host's data-sharing domain (an endpoint that
+  // shares nothing announces none; Fast DDS shares between endpoints whose domains meet).
+  std::optional<fdds::WriterQos> announced;
+  ASSERT_TRUE(eventually([&] { return (announced = peer.writer_qos(writer.value()->guid())).has_value(); }));
+  EXPECT_FALSE(announced->data_sharing.domain_ids().empty());
+  std::optional<fdds::ReaderQos> announced_reader;
+  ASSERT_TRUE(eventually([&] { return (announced_reader = peer.reader_qos("polyport_test/sized_in")).has_value(); }));
+  EXPECT_FALSE(announced_reader->data_sharing.domain_ids().empty());
+
+  // polyport -> generated
+  const demo::Sized sent = sized(11);
+  const Bytes bytes = encode_as<demo::SizedPubSubType>(sent);
+  ASSERT_EQ(writer.value()->write(bytes.data(), static_cast<std::uint32_t>(bytes.size())), Status::ok);
+  demo::Sized got;
+  fdds::SampleInfo info;
+  ASSERT_TRUE(eventually([&] {
+    return app_reader->take_next_sample(&got, &info) == ReturnCode_t::RETCODE_OK && info.valid_data;
+  })) << "no sample at the generated reader";
+  EXPECT_EQ(got, sent);
+
+  // generated -> polyport
+  demo::Sized back = sized(12);
+  ASSERT_TRUE(app_writer->write(&back));
+  ASSERT_TRUE(eventually([&] { return reader.value()->received() >= 1; })) << "no sample at the Domain reader";
+  EXPECT_EQ(reader.value()->refused(), 0u);
+  std::lock_guard lock(inbox.mutex);
+  ASSERT_EQ(inbox.samples.size(), 1u);
+  EXPECT_EQ((decode_as<demo::SizedPubSubType, demo::Sized>(inbox.samples[0])), back);
+}
+
+// No data sharing for a type without a bound (its samples have no largest size to pool), nor
+// when the endpoint's QoS says off.
+TEST_F(FastddsDomain, UnboundedTypeOrDataSharingOffSharesNoMemory) {
+  auto dom = domain(168);
+  ASSERT_NE(dom, nullptr);
+  GeneratedPeer peer(168);
+  ASSERT_TRUE(peer.ok());
+  auto unbounded = dom->create_writer(spec("polyport_test/pose_plain"));
+  ASSERT_TRUE(unbounded.ok()) << unbounded.error().message;
+  DdsQos off;
+  off.data_sharing = DdsQos::DataSharing::off;
+  auto switched_off = dom->create_writer(sized_spec("polyport_test/sized_plain", off));
+  ASSERT_TRUE(switched_off.ok()) << switched_off.error().message;
+  auto shared = dom->create_writer(sized_spec("polyport_test/sized_shared"));
+  ASSERT_TRUE(shared.ok()) << shared.error().message;
+  std::optional<fdds::WriterQos> a;
+  std::optional<fdds::WriterQos> b;
+  std::optional<fdds::WriterQos> c;
+  ASSERT_TRUE(eventually([&] {
+    a = peer.writer_qos(unbounded.value()->guid());
+    b = peer.writer_qos(switched_off.value()->guid());
+    c = peer.writer_qos(shared.value()->guid());
+    return a && b && c;
+  }));
+  EXPECT_TRUE(a->data_sharing.domain_ids().empty());
+  EXPECT_TRUE(b->data_sharing.domain_ids().empty());
+  EXPECT_FALSE(c->data_sharing.domain_ids().empty());  // the same domain does share
 }
 
 // ---- loop prevention -----------------------------------------------------------------------

@@ -1,5 +1,7 @@
 // Zero heap allocations per forwarded sample on the DDS passthrough path, against Fast DDS:
-// polyport bridges domain 156 to 157 (tests/data/fastdds/alloc_app.xml). The application's
+// polyport bridges domain 156 to 157 (tests/data/fastdds/alloc_app.xml, demo::Pose: samples
+// cross the transports) and 169 to 170 (alloc_sized_app.xml, the bounded demo::Sized: every
+// endpoint shares samples in memory, Fast DDS's data sharing). The application's
 // ends are raw endpoints on participants of their own, so the test also sees that the bytes
 // arrive untouched. Counting as in tests/support/alloc_gate.hpp: only polyport's part of the
 // path is asserted; Fast DDS's own allocations are reported.
@@ -26,40 +28,57 @@ namespace {
 
 using test::eventually;
 
+// The application's two ends as raw endpoints on participants of their own (domains
+// `from` and `to`), `sample_size` bytes a sample; the engine runs `app`.
+struct Path {
+  const char* app;
+  std::uint32_t from;
+  std::uint32_t to;
+  const char* topic;
+  const char* type;
+  bool bounded;  // the ends share memory with polyport (raw_type.hpp, data sharing)
+  std::size_t sample_size;
+};
+
 class FastddsPassthroughAlloc : public test::EngineFixture {
  protected:
   FastddsPassthroughAlloc() : EngineFixture(POLYPORT_TEST_DATA "/fastdds", LoadOptions{}) {
     models.add(test::counting_model("fastdds", fastdds::make_fastdds_domain, fastdds::default_config()));
   }
+  void forward_and_count(const Path& path);
 };
 
-TEST_F(FastddsPassthroughAlloc, ForwardingASampleAllocatesNothingInPolyport) {
-  ASSERT_TRUE(build("alloc_app.xml")) << problems();
+void FastddsPassthroughAlloc::forward_and_count(const Path& path) {
+  ASSERT_TRUE(build(path.app)) << problems();
   std::vector<std::string> warnings;
   ASSERT_TRUE(engine.start(warnings));
   {
     fastdds::ParticipantOptions left_options;
-    left_options.domain_id = 156;
+    left_options.domain_id = path.from;
     fastdds::ParticipantOptions right_options;
-    right_options.domain_id = 157;
+    right_options.domain_id = path.to;
     auto left = fastdds::Participant::create(left_options);
     auto right = fastdds::Participant::create(right_options);
     ASSERT_TRUE(left && right);
-    auto writer = fastdds::RawWriter::create(*left.value(), "polyport_alloc_pose", "demo::Pose", DdsQos{});
+    // A bounded type's largest sample (demo::Sized: 88 bytes) is every pool slot's size.
+    const std::uint32_t max_size = path.bounded ? 128 : fastdds::kDefaultMaxPayload;
+    auto writer = fastdds::RawWriter::create(*left.value(), path.topic, path.type, DdsQos{}, max_size, path.bounded);
     ASSERT_TRUE(writer) << writer.error().message;
     std::mutex mutex;
     std::vector<std::vector<std::byte>> received;
-    auto reader = fastdds::RawReader::create(*right.value(), "polyport_alloc_pose", "demo::Pose", DdsQos{},
-                                             [&](const std::byte* cdr, std::uint32_t size, MonoTime) {
-                                               std::lock_guard<std::mutex> lock(mutex);
-                                               received.emplace_back(cdr, cdr + size);
-                                             });
+    auto reader = fastdds::RawReader::create(
+        *right.value(), path.topic, path.type, DdsQos{},
+        [&](const std::byte* cdr, std::uint32_t size, MonoTime) {
+          std::lock_guard<std::mutex> lock(mutex);
+          received.emplace_back(cdr, cdr + size);
+        },
+        max_size, false, nullptr, path.bounded);
     ASSERT_TRUE(reader) << reader.error().message;
     ASSERT_TRUE(eventually([&] { return writer.value()->matched_readers() >= 1; }));
     ASSERT_TRUE(eventually([&] { return reader.value()->matched_writers() >= 1; }));
 
-    // A demo::Pose as XCDR1 bytes would be; passthrough carries them without looking.
-    std::vector<std::byte> sample(64);
+    // XCDR1 bytes as a sample of the type would be; passthrough carries them without looking.
+    std::vector<std::byte> sample(path.sample_size);
     sample[1] = std::byte{1};  // CDR_LE
     // Sample i carries i in byte 4 and 0 in byte 5; waiting is for that very sample, so a
     // late repeat of the first one (below) is never taken for another.
@@ -80,7 +99,7 @@ TEST_F(FastddsPassthroughAlloc, ForwardingASampleAllocatesNothingInPolyport) {
         const std::size_t before = count_received();
         ASSERT_EQ(writer.value()->write(sample.data(), static_cast<std::uint32_t>(sample.size())), Status::ok);
         ASSERT_TRUE(eventually([&] { return arrived(sample[4], std::byte{0}, before); }))
-            << "sample " << i << " did not arrive on domain 157";
+            << "sample " << i << " did not arrive on domain " << path.to;
       }
     };
     // Discovery is not symmetric: the right reader may list polyport's writer before that
@@ -93,7 +112,7 @@ TEST_F(FastddsPassthroughAlloc, ForwardingASampleAllocatesNothingInPolyport) {
       const std::size_t before = count_received();
       if (writer.value()->write(sample.data(), static_cast<std::uint32_t>(sample.size())) != Status::ok) return false;
       return eventually([&] { return arrived(sample[4], std::byte{0xFF}, before); }, std::chrono::milliseconds(200));
-    })) << "no sample reached domain 157";
+    })) << "no sample reached domain " << path.to;
     sample[5] = std::byte{0};
     send_and_wait(50);  // warm-up
     const std::uint64_t callbacks_before = test::g_callbacks.load();
@@ -117,6 +136,14 @@ TEST_F(FastddsPassthroughAlloc, ForwardingASampleAllocatesNothingInPolyport) {
   EXPECT_EQ(stats["connections"][0]["conversion"], "passthrough") << stats.dump(2);
   EXPECT_EQ(stats["connections"][0]["dropped"], 0) << stats.dump(2);
   engine.stop();
+}
+
+TEST_F(FastddsPassthroughAlloc, ForwardingASampleAllocatesNothingInPolyport) {
+  forward_and_count({"alloc_app.xml", 156, 157, "polyport_alloc_pose", "demo::Pose", false, 64});
+}
+
+TEST_F(FastddsPassthroughAlloc, ForwardingThroughSharedMemoryAllocatesNothingInPolyport) {
+  forward_and_count({"alloc_sized_app.xml", 169, 170, "polyport_alloc_sized", "demo::Sized", true, 48});
 }
 
 }  // namespace

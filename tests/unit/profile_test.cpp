@@ -1313,6 +1313,7 @@ TEST_F(ProfileLoader, DdsQosDefaultsWhenAbsent) {
   EXPECT_FALSE(qos.deadline_ns || qos.lifespan_ns || qos.lease_ns);
   EXPECT_EQ(qos.liveliness, DdsQos::Liveliness::automatic);
   EXPECT_TRUE(qos.partitions.empty());
+  EXPECT_EQ(qos.data_sharing, DdsQos::DataSharing::automatic);
   EXPECT_EQ(dds_of(profile).max_calls_in_flight, 16u);
   EXPECT_EQ(dds_of(profile).call_timeout_ns, 1'000'000'000);
 }
@@ -1337,6 +1338,7 @@ TEST_F(ProfileLoader, DdsQosFromTheComponentAndOverriddenByAPort) {
   EXPECT_EQ(plain.liveliness, DdsQos::Liveliness::manual_by_topic);
   EXPECT_EQ(plain.lease_ns, 2'000'000'000);
   EXPECT_EQ(plain.partitions, (std::vector<std::string>{"a", "b"}));
+  EXPECT_EQ(plain.data_sharing, DdsQos::DataSharing::off);
 
   const dds::PortSettings* tuned = &dds_of(profile).port("tuned");
   EXPECT_EQ(tuned->topic, "t");
@@ -1345,6 +1347,7 @@ TEST_F(ProfileLoader, DdsQosFromTheComponentAndOverriddenByAPort) {
   EXPECT_EQ(tuned->qos.partitions, (std::vector<std::string>{"c"})); // replaced, not added
   EXPECT_EQ(tuned->qos.durability, DdsQos::Durability::transient_local);  // kept
   EXPECT_EQ(tuned->qos.lifespan_ns, 250'500'000);
+  EXPECT_EQ(tuned->qos.data_sharing, DdsQos::DataSharing::automatic);  // overridden
 
   const PortSpec* svc = profile.find_port("svc");
   EXPECT_EQ(dds_of(profile).port("svc").topic, "base");
@@ -1465,22 +1468,26 @@ TEST_F(ProfileLoader, DdsBadValuesAtTheirPlaces) {
       "dds/BadValues.xml:13:19: /component_profile/dds/qos/liveliness: bad liveliness 'manual' (accepted: "
       "automatic, manual_by_participant, manual_by_topic)",
       "dds/BadValues.xml:14:17: /component_profile/dds/qos/lease_ms: bad lease_ms '-5'" + ms,
-      "dds/BadValues.xml:16:26: /component_profile/dds/max_calls_in_flight: bad max_calls_in_flight '4097': "
+      "dds/BadValues.xml:15:21: /component_profile/dds/qos/data_sharing: bad data_sharing 'on' (accepted: auto, off)",
+      "dds/BadValues.xml:17:26: /component_profile/dds/max_calls_in_flight: bad max_calls_in_flight '4097': "
       "expected an integer from 1 to 4096",
-      "dds/BadValues.xml:17:22: /component_profile/dds/call_timeout_ms: bad call_timeout_ms '-1'" + ms,
-      "dds/BadValues.xml:22:22: /component_profile/ports/data_port/qos/reliability: bad reliability 'Reliable' "
+      "dds/BadValues.xml:18:22: /component_profile/dds/call_timeout_ms: bad call_timeout_ms '-1'" + ms,
+      "dds/BadValues.xml:23:22: /component_profile/ports/data_port/qos/reliability: bad reliability 'Reliable' "
       "(accepted: reliable, best_effort)",
-      "dds/BadValues.xml:23:16: /component_profile/ports/data_port/qos/depth: bad history depth '2147483648': "
+      "dds/BadValues.xml:24:16: /component_profile/ports/data_port/qos/depth: bad history depth '2147483648': "
       "expected an integer from 1 to 2147483647",
       // xs:decimal has no exponent, and neither has the loader.
-      "dds/BadValues.xml:24:19: /component_profile/ports/data_port/qos/lease_ms: bad lease_ms '1e3'" + ms,
-      "dds/BadValues.xml:29:7: /component_profile/ports/service_port/operation[2]: missing attribute "
+      "dds/BadValues.xml:25:19: /component_profile/ports/data_port/qos/lease_ms: bad lease_ms '1e3'" + ms,
+      // A Fast DDS setting on a Cyclone DDS component.
+      "dds/BadValues.xml:26:9: /component_profile/ports/data_port/qos/data_sharing: warning: data_sharing is a "
+      "Fast DDS setting: ignored",
+      "dds/BadValues.xml:31:7: /component_profile/ports/service_port/operation[2]: missing attribute "
       "'dds_request': the struct a DDS application writes on the request topic (a polyport::rpc::RequestHeader, "
       "then the request)",
       // Type names resolve after every file is read, like request and reply.
-      "dds/BadValues.xml:28:77: /component_profile/ports/service_port/operation[1]/@dds_request: unknown type "
+      "dds/BadValues.xml:30:77: /component_profile/ports/service_port/operation[1]/@dds_request: unknown type "
       "'q::NoRequest'",
-      "dds/BadValues.xml:28:102: /component_profile/ports/service_port/operation[1]/@dds_reply: unknown type "
+      "dds/BadValues.xml:30:102: /component_profile/ports/service_port/operation[1]/@dds_reply: unknown type "
       "'q::NoReply'",
   }));
 }

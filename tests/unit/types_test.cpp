@@ -337,6 +337,26 @@ TEST_F(TypeLayout, BoundedSequenceMatchesCStruct) {
   EXPECT_EQ(offsetof(CBoundedDoubles, items), 8u);
 }
 
+// has_unbounded: anywhere inside, through arrays, bounded sequences, structs and typedefs.
+TEST_F(TypeLayout, UnboundedMembersAreFoundAtAnyDepth) {
+  const Type& bounded = parse_ok(R"(
+    struct Inner { string<8> tag; sequence<short, 4> s; };
+    struct Bounded { long a; double v[3]; Inner inner[2]; sequence<Inner, 2> more; };
+  )",
+                                 "Bounded");
+  EXPECT_FALSE(has_unbounded(bounded));
+  const Type& deep = parse_ok(R"(
+    struct Leaf { sequence<long> open; };
+    typedef Leaf Leaves[2];
+    struct Deep { long a; sequence<Leaves, 3> leaves; };
+  )",
+                              "Deep");
+  EXPECT_TRUE(has_unbounded(deep));
+  EXPECT_TRUE(has_unbounded(parse_ok("struct T { string<4> a; string b; };", "T")));
+  EXPECT_TRUE(has_unbounded(*registry_.primitive(TypeKind::string)));
+  EXPECT_FALSE(has_unbounded(*registry_.primitive(TypeKind::float64)));
+}
+
 TEST_F(TypeLayout, StringsAndUnboundedSequences) {
   const Type& type = parse_ok(R"(
     struct S {

@@ -94,6 +94,11 @@ struct Type {
 // Integers (octet included) and floating-point kinds: what can be read as a number.
 bool is_number(TypeKind kind) noexcept;
 
+// Whether an unbounded string or sequence is anywhere inside the type (through arrays,
+// bounded sequences and structs): such members live in a sample's tail, so the type has no
+// largest size of its own.
+bool has_unbounded(const Type& type) noexcept;
+
 // The flat representations named in the layout rules above.
 struct FlatSpan {
   std::uint32_t offset;
