@@ -415,11 +415,17 @@ TEST_F(FastddsDomain, BoundedTypeSharesMemoryWithAGeneratedApplication) {
   Inbox inbox;
   auto reader = dom->create_reader(sized_spec("polyport_test/sized_in"), inbox.callback());
   ASSERT_TRUE(reader.ok()) << reader.error().message;
+  // A reader of the domain on the writer's topic (a topic bridged both ways): loop prevention
+  // holds when the samples come through shared memory too.
+  Inbox own;
+  auto own_reader = dom->create_reader(sized_spec("polyport_test/sized_out"), own.callback());
+  ASSERT_TRUE(own_reader.ok()) << own_reader.error().message;
   fdds::DataWriter* app_writer = peer.sized_writer("polyport_test/sized_in");
   ASSERT_NE(app_writer, nullptr);
   ASSERT_TRUE(eventually([&] {
-    return writer.value()->matched_readers() == 1 && GeneratedPeer::matched(app_reader) == 1 &&
-           reader.value()->matched_writers() == 1 && GeneratedPeer::matched(app_writer) == 1;
+    return writer.value()->matched_readers() == 2 && GeneratedPeer::matched(app_reader) == 1 &&
+           reader.value()->matched_writers() == 1 && GeneratedPeer::matched(app_writer) == 1 &&
+           own_reader.value()->matched_writers() == 1;
   }));
 
   // What polyport's endpoints announced: the host's data-sharing domain (an endpoint that
@@ -441,6 +447,8 @@ TEST_F(FastddsDomain, BoundedTypeSharesMemoryWithAGeneratedApplication) {
     return app_reader->take_next_sample(&got, &info) == ReturnCode_t::RETCODE_OK && info.valid_data;
   })) << "no sample at the generated reader";
   EXPECT_EQ(got, sent);
+  ASSERT_TRUE(eventually([&] { return own_reader.value()->loop_dropped() == 1; }));
+  EXPECT_EQ(own_reader.value()->received(), 0u);
 
   // generated -> polyport
   demo::Sized back = sized(12);
