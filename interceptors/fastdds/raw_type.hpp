@@ -119,9 +119,9 @@ class RawType final : public eprosima::fastdds::dds::TopicDataType {
 // (RawType's `bounded`: an IDL type without unbounded strings or sequences, whose largest
 // encoding is then each pool slot's size), keyless, and its DdsQos allows it (data_sharing,
 // default automatic); the peer decides too (fastddsgen's code for a bounded type uses it by
-// default). Why: on one core, a hop between a generated application and a raw endpoint cost
-// 3-8 us more one-way without it than the same hop between two generated endpoints with it
-// (README, Benchmarks). Else samples go over the participant's transports.
+// default). Why: on one core, the native relay of the benchmarks was 1-9 us slower one-way
+// without it, and polyport, before it shared memory, was as slow as that relay (README,
+// "Fast DDS on one core, explained"). Else samples go over the participant's transports.
 enum class Transport : std::uint8_t { udp_loopback, shm, shm_and_udp_loopback, fastdds_defaults };
 
 struct ParticipantOptions {
