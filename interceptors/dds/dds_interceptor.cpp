@@ -59,8 +59,12 @@ class ServiceTopics final : public RpcTransport {
     bool reply_;
   };
 
+  // Request and reply structs are bounded whenever the bridge accepts them (a service payload
+  // has no unbounded member), so their endpoints may share memory too (EndpointSpec).
   EndpointSpec spec_of(const RpcLayout& layout) const {
-    return EndpointSpec{layout.address, layout.type_name, service_.qos, layout.max_size};
+    const bool bounded = layout.type != nullptr && !has_unbounded(*layout.type) &&
+                         layout.max_size < DdsAdaptor::kMaxSampleBytes;
+    return EndpointSpec{layout.address, layout.type_name, service_.qos, layout.max_size, bounded};
   }
 
   Domain& domain_;

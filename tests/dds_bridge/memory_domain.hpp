@@ -31,11 +31,13 @@ class MemoryDomain final : public dds::Domain {
   std::uint32_t id() const noexcept override { return 0; }
 
   Result<std::unique_ptr<dds::Writer>> create_writer(const dds::EndpointSpec& spec) override {
+    remember(spec);
     return std::unique_ptr<dds::Writer>(std::make_unique<MemoryWriter>(*this, spec, next_guid()));
   }
 
   Result<std::unique_ptr<dds::Reader>> create_reader(const dds::EndpointSpec& spec,
                                                      dds::ReceiveCallback callback) override {
+    remember(spec);
     auto subscription = std::make_shared<Subscription>();
     subscription->topic = spec.topic;
     subscription->type_name = spec.type_name;
@@ -48,6 +50,11 @@ class MemoryDomain final : public dds::Domain {
   }
 
   std::uint64_t writes() const noexcept { return writes_.load(); }
+  // Every endpoint asked for, in order.
+  std::vector<dds::EndpointSpec> specs() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return specs_;
+  }
 
  private:
   class MemoryWriter final : public dds::Writer {
@@ -121,6 +128,12 @@ class MemoryDomain final : public dds::Domain {
   std::mutex mutex_;
   std::vector<std::shared_ptr<Subscription>> subscriptions_;
   std::atomic<std::uint64_t> writes_{0};
+  std::vector<dds::EndpointSpec> specs_;  // guarded by mutex_
+
+  void remember(const dds::EndpointSpec& spec) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    specs_.push_back(spec);
+  }
   std::uint8_t guids_ = 0;
 };
 

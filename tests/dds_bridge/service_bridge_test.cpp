@@ -194,6 +194,19 @@ class Caller : public Component {
   RequiredServicePort& port;
 };
 
+// A service's request and reply structs are bounded (the bridge refuses unbounded payloads),
+// so their endpoints are marked bounded: Fast DDS may share their samples in memory.
+TEST_F(ServiceBridge, RequestAndReplyEndpointsAreBounded) {
+  build(PortDirection::provided);
+  ASSERT_TRUE(interceptor->start());
+  const std::vector<dds::EndpointSpec> specs = domain->specs();
+  ASSERT_EQ(specs.size(), 2u);  // the request reader, the reply writer
+  for (const dds::EndpointSpec& spec : specs) {
+    EXPECT_TRUE(spec.bounded) << spec.topic;
+    EXPECT_GT(spec.max_size, 4u) << spec.topic;
+  }
+}
+
 TEST_F(ServiceBridge, InProcessCallerGetsTheDdsServersReply) {
   build(PortDirection::provided);
   DdsServer server(*this, *domain);
