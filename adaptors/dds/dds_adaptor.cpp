@@ -79,7 +79,7 @@ bool DdsAdaptor::add_data_port(const PortSpec& spec, const TypeRegistry& types, 
   topic.type_name = dds_type_name(spec.data_type);
   topic.qos = port.qos;
   topic.max_size = max_bytes;
-  topic.bounded = !has_unbounded(*type) && max_bytes < kMaxSampleBytes;
+  topic.bounded = bounded(*type, max_bytes);
   if (spec.direction == PortDirection::output) {
     topic.out = &add_port<DataOutPort>(spec.name, spec.kind, type, max_bytes);
     topic.out->set_wire_format(WireFormat::xcdr1, codec);

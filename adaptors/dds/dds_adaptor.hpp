@@ -59,6 +59,11 @@ class DdsAdaptor final : public Component {
   static constexpr std::uint32_t kMaxSampleBytes = 1U << 20;
   // Room for unbounded strings and sequences beyond a type's fixed part.
   static constexpr std::uint32_t kTailBytes = 64U << 10;
+  // Whether `max_size` is the type's own largest encoding (no unbounded string or sequence,
+  // not capped at kMaxSampleBytes): what EndpointSpec::bounded says.
+  static bool bounded(const Type& type, std::uint32_t max_size) noexcept {
+    return !has_unbounded(type) && max_size < kMaxSampleBytes;
+  }
 
   DdsAdaptor(std::string name, std::string model) : Component(std::move(name), std::move(model)) {}
 

@@ -62,8 +62,7 @@ class ServiceTopics final : public RpcTransport {
   // Request and reply structs are bounded whenever the bridge accepts them (a service payload
   // has no unbounded member), so their endpoints may share memory too (EndpointSpec).
   EndpointSpec spec_of(const RpcLayout& layout) const {
-    const bool bounded = layout.type != nullptr && !has_unbounded(*layout.type) &&
-                         layout.max_size < DdsAdaptor::kMaxSampleBytes;
+    const bool bounded = layout.type != nullptr && DdsAdaptor::bounded(*layout.type, layout.max_size);
     return EndpointSpec{layout.address, layout.type_name, service_.qos, layout.max_size, bounded};
   }
 

@@ -163,34 +163,23 @@ class GeneratedPeer : public fdds::DomainParticipantListener {
     }
     return participant_->create_topic(name, type_name, fdds::TOPIC_QOS_DEFAULT);
   }
-  // demo::Sized endpoints at the generated code's defaults (data sharing AUTO), reliable.
-  fdds::DataWriter* sized_writer(const std::string& topic_name) {
-    fdds::Publisher* publisher = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
-    return publisher == nullptr ? nullptr
-                                : publisher->create_datawriter(topic(topic_name, "demo::Sized"), fdds::DATAWRITER_QOS_DEFAULT);
-  }
-  fdds::DataReader* sized_reader(const std::string& topic_name) {
-    fdds::Subscriber* subscriber = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
-    return subscriber == nullptr ? nullptr
-                                 : subscriber->create_datareader(topic(topic_name, "demo::Sized"), reliable_reader());
-  }
-
+  // `type_name`: demo::Pose unless told otherwise (demo::Sized).
   fdds::DataWriter* writer(const std::string& topic_name, fdds::DataWriterQos qos = fdds::DATAWRITER_QOS_DEFAULT,
-                           const std::vector<std::string>& partitions = {}) {
+                           const std::vector<std::string>& partitions = {}, const std::string& type_name = kType) {
     fdds::PublisherQos publisher_qos = fdds::PUBLISHER_QOS_DEFAULT;
     for (const std::string& p : partitions) publisher_qos.partition().push_back(p.c_str());
     fdds::Publisher* publisher = participant_->create_publisher(publisher_qos);
-    return publisher == nullptr ? nullptr : publisher->create_datawriter(topic(topic_name), qos);
+    return publisher == nullptr ? nullptr : publisher->create_datawriter(topic(topic_name, type_name), qos);
   }
 
   // Reliable, keep-last 10 unless told otherwise (Fast DDS's reader default is best effort,
   // keep-last 1: a second sample could replace the first before the test takes it).
   fdds::DataReader* reader(const std::string& topic_name, fdds::DataReaderQos qos = reliable_reader(),
-                           const std::vector<std::string>& partitions = {}) {
+                           const std::vector<std::string>& partitions = {}, const std::string& type_name = kType) {
     fdds::SubscriberQos subscriber_qos = fdds::SUBSCRIBER_QOS_DEFAULT;
     for (const std::string& p : partitions) subscriber_qos.partition().push_back(p.c_str());
     fdds::Subscriber* subscriber = participant_->create_subscriber(subscriber_qos);
-    return subscriber == nullptr ? nullptr : subscriber->create_datareader(topic(topic_name), qos);
+    return subscriber == nullptr ? nullptr : subscriber->create_datareader(topic(topic_name, type_name), qos);
   }
 
   static fdds::DataReaderQos reliable_reader() {
@@ -408,7 +397,7 @@ TEST_F(FastddsDomain, BoundedTypeSharesMemoryWithAGeneratedApplication) {
   GeneratedPeer peer(167);
   ASSERT_TRUE(peer.ok());
 
-  fdds::DataReader* app_reader = peer.sized_reader("polyport_test/sized_out");
+  fdds::DataReader* app_reader = peer.reader("polyport_test/sized_out", GeneratedPeer::reliable_reader(), {}, "demo::Sized");
   ASSERT_NE(app_reader, nullptr);
   auto writer = dom->create_writer(sized_spec("polyport_test/sized_out"));
   ASSERT_TRUE(writer.ok()) << writer.error().message;
@@ -420,7 +409,7 @@ TEST_F(FastddsDomain, BoundedTypeSharesMemoryWithAGeneratedApplication) {
   Inbox own;
   auto own_reader = dom->create_reader(sized_spec("polyport_test/sized_out"), own.callback());
   ASSERT_TRUE(own_reader.ok()) << own_reader.error().message;
-  fdds::DataWriter* app_writer = peer.sized_writer("polyport_test/sized_in");
+  fdds::DataWriter* app_writer = peer.writer("polyport_test/sized_in", fdds::DATAWRITER_QOS_DEFAULT, {}, "demo::Sized");
   ASSERT_NE(app_writer, nullptr);
   ASSERT_TRUE(eventually([&] {
     return writer.value()->matched_readers() == 2 && GeneratedPeer::matched(app_reader) == 1 &&
