@@ -4,6 +4,10 @@
 //   cdr_to_lcm  XCDR1 (DDS) -> flat -> by-name mapping -> LCM
 //   dbc_to_cdr  CAN frame (DBC) -> flat -> by-name mapping -> XCDR1
 //   cdr_to_cdr  same format and type: passthrough (the floor)
+//   lcm_to_can8, can8_to_lcm, lcm1k_to_can64, can64_to_lcm1k  the cross-model matrix's CAN <->
+//               LCM connections (benchmarks/matrix): its ping-pong types, only seq mapped
+// Where clock_gettime is a system call (the vcan guest: scripts/vcan-run -- build/bin/bench_conversion)
+// the connection's stamps read the TSC clock, as polyportd's do ("clock" in the context).
 // Median and p99 over 50 repetitions (Google Benchmark aggregates), plus the connection's
 // own per-sample t_out - t_in histogram (conn_p50_ns, conn_p99_ns).
 // BM_ColdPath: the wheelchair's DDS -> in-process hop once per iteration with cold caches
@@ -16,6 +20,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -79,29 +84,41 @@ std::unique_ptr<Codec> codec(WireFormat format, const Type& type) {
   return std::move(made).value();
 }
 
-// A sample in the source's wire format, made by encoding flat values with its codec.
+// A sample in the source's wire format, made by encoding flat values with its codec: the
+// Wheel64 types' eight doubles, or for the ping-pong types a sequence number in the first
+// field (an int64, or a DBC signal's double) and the rest zero.
 std::vector<std::byte> wire_sample(const Codec& source) {
-  const double values[8] = {12.5, 12.0, 3.25, 3.5, 18.0, 18.125, 40.0, 24.2};
-  std::vector<std::byte> wire(source.max_wire_size(sizeof values));
-  const CodecResult r = source.encode(reinterpret_cast<const std::byte*>(values), sizeof values, wire.data(),
+  std::vector<std::byte> flat(source.type().size);
+  if (source.type().name.find("heel64") != std::string::npos) {
+    const double values[8] = {12.5, 12.0, 3.25, 3.5, 18.0, 18.125, 40.0, 24.2};
+    std::memcpy(flat.data(), values, sizeof values);
+  } else if (source.format() == WireFormat::dbc) {
+    const double seq = 123456.0;
+    std::memcpy(flat.data(), &seq, sizeof seq);
+  } else {
+    const std::int64_t seq = 123456;
+    std::memcpy(flat.data(), &seq, sizeof seq);
+  }
+  std::vector<std::byte> wire(source.max_wire_size(static_cast<std::uint32_t>(flat.size())));
+  const CodecResult r = source.encode(flat.data(), static_cast<std::uint32_t>(flat.size()), wire.data(),
                                       static_cast<std::uint32_t>(wire.size()));
   if (!r.ok()) throw std::runtime_error("encode failed: " + std::string(to_string(r.error)));
   wire.resize(r.size);
   return wire;
 }
 
-void run_case(benchmark::State& state, WireFormat from_format, const Type& from, WireFormat to_format, const Type& to) {
+void run_case(benchmark::State& state, WireFormat from_format, const Type& from, WireFormat to_format, const Type& to,
+              const MappingSpec& spec = {}, std::uint32_t room = 512) {
   auto source_codec = codec(from_format, from);
   auto target_codec = codec(to_format, to);
   std::unique_ptr<MappingProgram> mapping;
   if (&from != &to) {
     Diagnostics d;
-    mapping = MappingProgram::compile(from, to, MappingSpec{}, d);
+    mapping = MappingProgram::compile(from, to, spec, d);
     if (!mapping) throw std::runtime_error("mapping did not compile");
   }
   Component a{"A", "src"};
   Component b{"B", "dst"};
-  const std::uint32_t room = 512;
   auto& out = a.add_port<DataOutPort>("out", PortKind::data, &from, room);
   auto& in = b.add_port<DataInPort>("in", PortKind::data, &to, room, QueuePolicy::data, 1);
   out.set_wire_format(from_format, source_codec.get());
@@ -130,6 +147,65 @@ void BM_cdr_to_lcm(benchmark::State& s) {
 void BM_dbc_to_cdr(benchmark::State& s) {
   run_case(s, WireFormat::dbc, *formats().dbc, WireFormat::xcdr1, *formats().idl);
 }
+// The cross-model matrix's CAN <-> LCM connections (benchmarks/matrix): bench_lcm::ping16_t
+// (seq + 8-byte pad) and the classic Ping frame of pingpong.dbc, ping1k_t (seq + 1016-byte
+// pad) and pingpong_fd.dbc's 64-byte FD frame; only seq is mapped, narrowed as there.
+struct PingFormats {
+  TypeRegistry types;
+  const Type* lcm16 = nullptr;
+  const Type* lcm1k = nullptr;
+  const Type* can8 = nullptr;
+  const Type* can64 = nullptr;
+  MappingSpec seq_only;
+  PingFormats() {
+    Diagnostics d;
+    types.add_type_file(POLYPORT_BENCH_PINGPONG_LCM, d);
+    lcm16 = types.find("bench_lcm::ping16_t");
+    lcm1k = types.find("bench_lcm::ping1k_t");
+    can8 = dbc_ping(POLYPORT_BENCH_PINGPONG_DBC, d);
+    can64 = dbc_ping(POLYPORT_BENCH_PINGPONG_FD_DBC, d);
+    if (!lcm16 || !lcm1k || !can8 || !can64) throw std::runtime_error("ping-pong types did not load");
+    seq_only.by_name = false;
+    MappingRule seq;
+    seq.target = "seq";
+    seq.source = "seq";
+    seq.allow_narrowing = true;
+    seq_only.rules.push_back(seq);
+  }
+  // The Ping message of a DBC file (its types are named after the file).
+  const Type* dbc_ping(const char* file, Diagnostics& d) {
+    const std::size_t before = types.declared().size();
+    types.add_type_file(file, d);
+    for (std::size_t i = before; i < types.declared().size(); ++i) {
+      const Type* t = types.declared()[i];
+      if (t->origin == TypeOrigin::dbc && t->name.ends_with("::Ping")) return t;
+    }
+    return nullptr;
+  }
+};
+
+PingFormats& ping_formats() {
+  static PingFormats f;
+  return f;
+}
+
+void BM_lcm_to_can8(benchmark::State& s) {
+  auto& f = ping_formats();
+  run_case(s, WireFormat::lcm, *f.lcm16, WireFormat::dbc, *f.can8, f.seq_only, 2048);
+}
+void BM_can8_to_lcm(benchmark::State& s) {
+  auto& f = ping_formats();
+  run_case(s, WireFormat::dbc, *f.can8, WireFormat::lcm, *f.lcm16, f.seq_only, 2048);
+}
+void BM_lcm1k_to_can64(benchmark::State& s) {
+  auto& f = ping_formats();
+  run_case(s, WireFormat::lcm, *f.lcm1k, WireFormat::dbc, *f.can64, f.seq_only, 2048);
+}
+void BM_can64_to_lcm1k(benchmark::State& s) {
+  auto& f = ping_formats();
+  run_case(s, WireFormat::dbc, *f.can64, WireFormat::lcm, *f.lcm1k, f.seq_only, 2048);
+}
+
 void BM_cdr_to_cdr_passthrough(benchmark::State& s) {
   run_case(s, WireFormat::xcdr1, *formats().idl, WireFormat::xcdr1, *formats().idl);
 }
@@ -424,6 +500,10 @@ BENCHMARK(BM_ColdPath)
 BENCHMARK(BM_cdr_to_lcm)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
 BENCHMARK(BM_dbc_to_cdr)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
 BENCHMARK(BM_cdr_to_cdr_passthrough)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
+BENCHMARK(BM_lcm_to_can8)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
+BENCHMARK(BM_can8_to_lcm)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
+BENCHMARK(BM_lcm1k_to_can64)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
+BENCHMARK(BM_can64_to_lcm1k)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
 
 }  // namespace
 
@@ -431,6 +511,14 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   if (const char* revision = std::getenv("POLYPORT_GIT_REVISION")) benchmark::AddCustomContext("git_revision", revision);
   benchmark::AddCustomContext("benchmark", "converting connection: decode + map + encode of a 64-byte struct");
+  // As polyportd: where clock_gettime is a system call (the vcan guest), the connection's own
+  // stamps read the TSC clock, or they would time the system call.
+  if (auto clock = use_clock(ClockChoice::automatic)) {
+    benchmark::AddCustomContext("clock", clock.value().tsc ? "tsc" : "clock_gettime");
+  } else {
+    std::fprintf(stderr, "bench_conversion: %s\n", clock.error().message.c_str());
+    return 1;
+  }
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;

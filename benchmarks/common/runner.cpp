@@ -16,6 +16,7 @@
 #include <atomic>
 #include <cctype>
 #include <cerrno>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -375,6 +376,38 @@ std::int64_t read_polyport_stats(const fs::path& stats_file, int daemon_rc, cons
   return worst_p99;
 }
 
+Json paired_chunks(const Json& via, const Json& relay, std::int64_t allowance_ns) {
+  const Json v = via.value("one_way_p50_per_chunk_ns", Json::array());
+  const Json r = relay.value("one_way_p50_per_chunk_ns", Json::array());
+  if (v.empty() || v.size() != r.size()) return nullptr;
+  std::vector<std::int64_t> d;
+  for (std::size_t i = 0; i < v.size(); ++i) d.push_back(v[i].get<std::int64_t>() - r[i].get<std::int64_t>());
+  std::sort(d.begin(), d.end());
+  const int n = static_cast<int>(d.size());
+  // P(Bin(n, 1/2) <= j) for j = 0, 1, ...: the sign test's tail.
+  std::vector<double> tail;
+  double term = std::pow(0.5, n);  // P(X = 0)
+  double sum = 0;
+  for (int j = 0; j <= n; ++j) {
+    sum += term;
+    tail.push_back(sum);
+    term = term * (n - j) / (j + 1);
+  }
+  int k = 1;
+  while (k + 1 <= (n + 1) / 2 && 2 * tail[static_cast<std::size_t>(k)] <= 0.05) ++k;
+  const std::int64_t low = d[static_cast<std::size_t>(k - 1)];
+  const std::int64_t high = d[static_cast<std::size_t>(n - k)];
+  const std::int64_t median = n % 2 == 1 ? d[static_cast<std::size_t>(n / 2)]
+                                         : (d[static_cast<std::size_t>(n / 2 - 1)] + d[static_cast<std::size_t>(n / 2)]) / 2;
+  const char* verdict = high <= allowance_ns ? "holds" : low > allowance_ns ? "misses" : "undecided";
+  return {{"chunks", n},
+          {"via_minus_relay_p50_ns", median},
+          {"interval_ns", {low, high}},
+          {"confidence", 1 - 2 * tail[static_cast<std::size_t>(k - 1)]},
+          {"allowance_ns", allowance_ns},
+          {"verdict", verdict}};
+}
+
 Json relay_targets(const Json& c, std::int64_t worst_in_to_out_p99) {
   const auto has = [&](const char* series) { return c.contains(series) && c[series].contains("one_way_ns"); };
   if (!has("via_polyport") || !has("via_native_relay") || worst_in_to_out_p99 < 0) return nullptr;
@@ -386,6 +419,7 @@ Json relay_targets(const Json& c, std::int64_t worst_in_to_out_p99) {
          {"bound_relay_plus_2us_ns", bound},
          {"via_within_relay_plus_2us", v50 <= bound},
          {"via_margin_ns", bound - v50},  // < 0: by how much the bound is missed
+         {"via_minus_relay_paired_chunks", paired_chunks(c["via_polyport"], c["via_native_relay"], 2000)},
          {"polyport_in_to_out_p99_ns", worst_in_to_out_p99},
          {"in_to_out_p99_within_1us", worst_in_to_out_p99 <= 1000}};
   if (has("direct")) t["direct_one_way_p50_ns"] = c["direct"]["one_way_ns"]["p50"];
@@ -530,7 +564,16 @@ std::string relay_verdicts(const Json& c) {
   const auto verdict = [&](const char* key) {
     return t[key].is_boolean() ? (t[key].get<bool>() ? "ok" : "MISS") : "n/a";
   };
-  return std::string("via <= relay + 2 us ") + verdict("via_within_relay_plus_2us") + "  in-to-out p99 <= 1 us " +
+  std::string paired;
+  if (const Json p = t.value("via_minus_relay_paired_chunks", Json()); p.is_object()) {
+    char text[96];
+    std::snprintf(text, sizeof text, " (chunks paired: %+.1f us, [%+.1f, %+.1f] at %.0f %%: %s)",
+                  p["via_minus_relay_p50_ns"].get<double>() / 1000, p["interval_ns"][0].get<double>() / 1000,
+                  p["interval_ns"][1].get<double>() / 1000, 100 * p["confidence"].get<double>(),
+                  p["verdict"].get<std::string>().c_str());
+    paired = text;
+  }
+  return std::string("via <= relay + 2 us ") + verdict("via_within_relay_plus_2us") + paired + "  in-to-out p99 <= 1 us " +
          verdict("in_to_out_p99_within_1us") + "  cpu <= relay " + verdict("polyportd_cpu_within_relay");
 }
 

@@ -160,6 +160,17 @@ std::int64_t read_polyport_stats(const fs::path& stats_file, int daemon_rc, cons
 // per round trip <= the relay's. Null when a series or the statistics are missing.
 Json relay_targets(const Json& c, std::int64_t worst_in_to_out_p99);
 
+// Whether one run decides "via <= relay + allowance at the median". The chunks of the via
+// and relay series alternate (run_interleaved), chunk i of each side by side in time, so
+// d_i = via p50 - relay p50 of chunk i (one_way_p50_per_chunk_ns) leaves out what moves the
+// whole machine between chunks. Returns their median and a distribution-free interval for
+// it: the sign test's d_(k) .. d_(n+1-k) of the sorted d, k the largest with
+// 2 P(Bin(n, 1/2) < k) <= 5 % (at least 95 % confidence), or k = 1 below six chunks (then
+// the confidence is 1 - 2^(1-n), reported as it is). The verdict: "holds" when the interval
+// lies at or under `allowance_ns`, "misses" when it lies above, else "undecided" (more chunks
+// or rounds would decide it). Null when either series has no chunks or their counts differ.
+Json paired_chunks(const Json& via, const Json& relay, std::int64_t allowance_ns);
+
 // The command line every runner takes: OUTPUT.json [ROUNDS [WARMUP]], and the options
 // --chunks N, --placements LIST (unpinned,one-core), --cpu N (one-core's core), --keep DIR.
 struct RunOptions {

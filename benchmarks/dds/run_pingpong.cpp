@@ -113,7 +113,9 @@ Json run_dds_case(const Settings& s, const Placement& placement, const std::stri
       const std::int64_t r50 = c["via_native_relay"]["one_way_ns"]["p50"].get<std::int64_t>();
       c["against_native_relay"] = {{"relay_one_way_p50_ns", r50},
                                    {"relay_within_bound", r50 <= bound},
-                                   {"via_polyport_minus_relay_p50_ns", v50 - r50}};
+                                   {"via_polyport_minus_relay_p50_ns", v50 - r50},
+                                   {"via_minus_relay_paired_chunks",
+                                    bench::paired_chunks(c["via_polyport"], c["via_native_relay"], 2000)}};
     }
     c["targets"] = {{"direct_one_way_p50_ns", d50},
                     {"via_one_way_p50_ns", v50},

@@ -102,6 +102,8 @@ def pair_of(case, source):
         "bars": {
             "via_within_relay_plus_2us": t.get("via_within_relay_plus_2us"),
             "relay_plus_2us_bound_ns": t.get("bound_relay_plus_2us_ns"),
+            # Whether this run decides that bar: the chunks' paired differences (runner.hpp).
+            "via_minus_relay_paired_chunks": t.get("via_minus_relay_paired_chunks"),
             "via_within_direct_bound": None if direct_bar is None else direct_bar["via_within"],
             "direct_bound_is_a_bar": None if direct_bar is None else direct_bar["is_a_bar"],
             "direct_bound_ns": None if direct_bar is None else direct_bar["bound_ns"],
@@ -282,9 +284,14 @@ def markdown(matrix, runs, pairs, missing, json_name):
         lines += ["† CAN -> CAN: classic CAN (8 data bytes) from `%s`, run in the vcan guest (user-mode Linux, one "
                   "CPU), not in this run." % can_source, ""]
     lines += ["## Every measured pair", "",
+              "*via - relay, chunks paired*: the median over chunks of via p50 - relay p50 of the same chunk (the "
+              "series alternate chunk by chunk), the sign test's interval for it at the confidence shown, and "
+              "whether this run decides the relay bar: holds (interval at or under +2 us), misses (above), "
+              "undecided (across: more chunks would tell).", "",
               "| placement | from | to | size B | direct p50/p99 | via p50/p99 | relay p50/p99 | via <= relay + 2 | "
-              "direct bound | via <= direct bound | polyportd CPU/msg | relay CPU/msg | in-to-out p50/p99 ns |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+              "via - relay, chunks paired | direct bound | via <= direct bound | polyportd CPU/msg | relay CPU/msg | "
+              "in-to-out p50/p99 ns |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for q in pairs:
         d = q["direct_one_way_ns"] or {}
         b = q["bars"]
@@ -292,13 +299,14 @@ def markdown(matrix, runs, pairs, missing, json_name):
         direct_verdict = verdict(b["via_within_direct_bound"])
         if b["via_within_direct_bound"] is not None and not b["direct_bound_is_a_bar"]:
             direct_verdict += " (info)"
-        lines.append("| %s | %s | %s | %s | %s/%s | %s/%s | %s/%s | %s | %s | %s | %s | %s | %s/%s |" % (
+        lines.append("| %s | %s | %s | %s | %s/%s | %s/%s | %s/%s | %s | %s | %s | %s | %s | %s | %s/%s |" % (
             q["placement"], LABEL[q["from"]], LABEL[q["to"]],
             "%d%s" % (q["size_bytes"], " (CAN %d)" % q["can_frame_bytes"] if q.get("can_frame_bytes") else ""),
             us(d.get("p50")), us(d.get("p99")),
             us(q["via_polyport_one_way_ns"]["p50"]), us(q["via_polyport_one_way_ns"]["p99"]),
             us(q["via_native_relay_one_way_ns"]["p50"]), us(q["via_native_relay_one_way_ns"]["p99"]),
-            verdict(b["via_within_relay_plus_2us"]), us(b["direct_bound_ns"]), direct_verdict,
+            verdict(b["via_within_relay_plus_2us"]), paired_text(b.get("via_minus_relay_paired_chunks")),
+            us(b["direct_bound_ns"]), direct_verdict,
             us(q["cpu_per_message_ns"]["polyportd"]), us(q["cpu_per_message_ns"]["relay"]),
             own.get("p50_ns", "-"), own.get("p99_ns", "-")))
         for e in q["errors"]:
@@ -311,6 +319,14 @@ def markdown(matrix, runs, pairs, missing, json_name):
     for reason, which in reasons.items():
         lines.append("- %s: %s" % (", ".join(dict.fromkeys(which)), reason))
     return "\n".join(lines) + "\n"
+
+
+def paired_text(p):
+    """The paired chunks' estimate, e.g. "+1.2 [-0.4, +3.0] 98 % undecided"."""
+    if not p:
+        return "-"
+    return "%+.1f [%+.1f, %+.1f] %.0f %% %s" % (p["via_minus_relay_p50_ns"] / 1000, p["interval_ns"][0] / 1000,
+                                               p["interval_ns"][1] / 1000, 100 * p["confidence"], p["verdict"])
 
 
 def is_guest(run):
@@ -411,7 +427,10 @@ def main():
     misses = [q for q in pairs if q["bars"]["via_within_relay_plus_2us"] is False or
               (q["bars"]["via_within_direct_bound"] is False and q["bars"]["direct_bound_is_a_bar"])]
     for q in misses:
-        print("bar missed: %s %s -> %s %d B" % (q["placement"], q["from"], q["to"], q["size_bytes"]), file=sys.stderr)
+        paired = q["bars"].get("via_minus_relay_paired_chunks")
+        print("bar missed: %s %s -> %s %d B%s" % (
+            q["placement"], q["from"], q["to"], q["size_bytes"],
+            "" if not paired else " (via - relay, chunks paired: %s)" % paired_text(paired)), file=sys.stderr)
     return 0
 
 
