@@ -4,8 +4,8 @@
 //   cdr_to_lcm  XCDR1 (DDS) -> flat -> by-name mapping -> LCM
 //   dbc_to_cdr  CAN frame (DBC) -> flat -> by-name mapping -> XCDR1
 //   cdr_to_cdr  same format and type: passthrough (the floor)
-//   lcm_to_can8, can8_to_lcm, lcm1k_to_can64, can64_to_lcm1k  the cross-model matrix's CAN <->
-//               LCM connections (benchmarks/matrix): its ping-pong types, only seq mapped
+//   lcm_can     the cross-model matrix's CAN <-> LCM connections (benchmarks/matrix): its
+//               ping-pong types (16 B: classic frame, 1 KiB: FD frame), only seq mapped
 // Where clock_gettime is a system call (the vcan guest: scripts/vcan-run -- build/bin/bench_conversion)
 // the connection's stamps read the TSC clock, as polyportd's do ("clock" in the context).
 // Median and p99 over 50 repetitions (Google Benchmark aggregates), plus the connection's
@@ -189,21 +189,17 @@ PingFormats& ping_formats() {
   return f;
 }
 
-void BM_lcm_to_can8(benchmark::State& s) {
+// Args: the LCM type's size (16 or 1024: a classic or an FD frame on the CAN side) and the
+// direction (0: LCM -> CAN, 1: CAN -> LCM).
+void BM_lcm_can(benchmark::State& s) {
   auto& f = ping_formats();
-  run_case(s, WireFormat::lcm, *f.lcm16, WireFormat::dbc, *f.can8, f.seq_only, 2048);
-}
-void BM_can8_to_lcm(benchmark::State& s) {
-  auto& f = ping_formats();
-  run_case(s, WireFormat::dbc, *f.can8, WireFormat::lcm, *f.lcm16, f.seq_only, 2048);
-}
-void BM_lcm1k_to_can64(benchmark::State& s) {
-  auto& f = ping_formats();
-  run_case(s, WireFormat::lcm, *f.lcm1k, WireFormat::dbc, *f.can64, f.seq_only, 2048);
-}
-void BM_can64_to_lcm1k(benchmark::State& s) {
-  auto& f = ping_formats();
-  run_case(s, WireFormat::dbc, *f.can64, WireFormat::lcm, *f.lcm1k, f.seq_only, 2048);
+  const Type& lcm = s.range(0) == 16 ? *f.lcm16 : *f.lcm1k;
+  const Type& can = s.range(0) == 16 ? *f.can8 : *f.can64;
+  if (s.range(1) == 0) {
+    run_case(s, WireFormat::lcm, lcm, WireFormat::dbc, can, f.seq_only, 2048);
+  } else {
+    run_case(s, WireFormat::dbc, can, WireFormat::lcm, lcm, f.seq_only, 2048);
+  }
 }
 
 void BM_cdr_to_cdr_passthrough(benchmark::State& s) {
@@ -500,10 +496,12 @@ BENCHMARK(BM_ColdPath)
 BENCHMARK(BM_cdr_to_lcm)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
 BENCHMARK(BM_dbc_to_cdr)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
 BENCHMARK(BM_cdr_to_cdr_passthrough)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
-BENCHMARK(BM_lcm_to_can8)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
-BENCHMARK(BM_can8_to_lcm)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
-BENCHMARK(BM_lcm1k_to_can64)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
-BENCHMARK(BM_can64_to_lcm1k)->Repetitions(50)->ComputeStatistics("p99", p99)->ReportAggregatesOnly(true);
+BENCHMARK(BM_lcm_can)
+    ->ArgNames({"lcm_bytes", "can_to_lcm"})
+    ->ArgsProduct({{16, 1024}, {0, 1}})
+    ->Repetitions(50)
+    ->ComputeStatistics("p99", p99)
+    ->ReportAggregatesOnly(true);
 
 }  // namespace
 

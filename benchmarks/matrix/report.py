@@ -427,10 +427,15 @@ def main():
     misses = [q for q in pairs if q["bars"]["via_within_relay_plus_2us"] is False or
               (q["bars"]["via_within_direct_bound"] is False and q["bars"]["direct_bound_is_a_bar"])]
     for q in misses:
-        paired = q["bars"].get("via_minus_relay_paired_chunks")
-        print("bar missed: %s %s -> %s %d B%s" % (
-            q["placement"], q["from"], q["to"], q["size_bytes"],
-            "" if not paired else " (via - relay, chunks paired: %s)" % paired_text(paired)), file=sys.stderr)
+        bars = q["bars"]
+        which = []
+        if bars["via_within_relay_plus_2us"] is False:
+            paired = bars.get("via_minus_relay_paired_chunks")
+            which.append("relay + 2 us" + ("" if not paired else " (via - relay, chunks paired: %s)" % paired_text(paired)))
+        if bars["via_within_direct_bound"] is False and bars["direct_bound_is_a_bar"]:
+            which.append(bars["direct_bound"])
+        print("bar missed: %s %s -> %s %d B: %s" % (q["placement"], q["from"], q["to"], q["size_bytes"], "; ".join(which)),
+              file=sys.stderr)
     return 0
 
 
