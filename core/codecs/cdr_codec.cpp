@@ -624,6 +624,7 @@ class CdrCodec final : public Codec {
     return {program_.root_size, kNativeLittle ? little_id_ : big_id_};
   }
 
+  const void* program_data() const noexcept override { return program_.code.data(); }
   std::uint32_t max_wire_size(std::uint32_t flat_capacity) const noexcept override {
     const std::uint64_t tail =
         flat_capacity > program_.root_size ? flat_capacity - program_.root_size : 0;

@@ -179,6 +179,7 @@ class DbcCodec final : public Codec {
 
   WireFormat format() const noexcept override { return WireFormat::dbc; }
   const Type& type() const noexcept override { return type_; }
+  const void* program_data() const noexcept override { return slots_.data(); }
   std::uint32_t max_wire_size(std::uint32_t) const noexcept override { return length_; }
 
   CodecResult decode(const std::byte* wire, std::uint32_t wire_size, std::byte* flat,

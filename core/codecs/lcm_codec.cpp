@@ -466,6 +466,7 @@ class LcmCodec final : public Codec {
   WireFormat format() const noexcept override { return WireFormat::lcm; }
   const Type& type() const noexcept override { return type_; }
 
+  const void* program_data() const noexcept override { return program_.data(); }
   std::uint32_t max_wire_size(std::uint32_t flat_capacity) const noexcept override {
     // Every flat byte beyond the fixed part carries at most one wire byte (a primitive is
     // the same size in both forms; a string's or array's FlatSpan is larger than its wire

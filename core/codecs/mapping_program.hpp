@@ -222,6 +222,7 @@ class CompiledMapping final : public MappingProgram {
            std::uint32_t target_capacity, std::uint32_t& target_size) const noexcept override;
   // The lines of `polyportd check` (mapping.cpp).
   std::vector<std::string> describe() const override;
+  const void* program_data() const noexcept override { return steps_.data(); }
 
   std::vector<Step> steps_;
   std::vector<std::string> notes_;  // what each step maps, for describe()

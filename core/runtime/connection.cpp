@@ -25,6 +25,29 @@ std::unique_ptr<SampleBuffer> make_buffer(QueuePolicy policy, std::uint32_t dept
 }
 }  // namespace
 
+namespace {
+
+// Where a stage's code starts (for prefetching it): GCC's extension that takes the function
+// out of a bound pointer to member function (the implementation a virtual call would reach);
+// null elsewhere.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpedantic"
+#pragma GCC diagnostic ignored "-Wpmf-conversions"
+const void* entry_of_decode(const Codec& codec) { return reinterpret_cast<const void*>(codec.*(&Codec::decode)); }
+const void* entry_of_encode(const Codec& codec) { return reinterpret_cast<const void*>(codec.*(&Codec::encode)); }
+const void* entry_of_run(const MappingProgram& mapping) {
+  return reinterpret_cast<const void*>(mapping.*(&MappingProgram::run));
+}
+#pragma GCC diagnostic pop
+#else
+const void* entry_of_decode(const Codec&) { return nullptr; }
+const void* entry_of_encode(const Codec&) { return nullptr; }
+const void* entry_of_run(const MappingProgram&) { return nullptr; }
+#endif
+
+}  // namespace
+
 Connection::Connection(DataOutPort& source, DataInPort& target, QueuePolicy policy, std::uint32_t depth,
                        const MappingProgram* mapping)
     : target_(target),
@@ -50,6 +73,22 @@ Connection::Connection(DataOutPort& source, DataInPort& target, QueuePolicy poli
   // Taking the flat sample in place, only to copy it into the buffer: a sink, a mapping or an
   // encoder would read it where the wire put it, maybe misaligned.
   if (source.codec() && !mapping_ && !target.codec() && buffer_) in_place_ = source.codec()->in_place();
+  // What a converting sample touches first in each stage, prefetched together as it enters
+  // deliver() so that the cache misses overlap instead of coming one stage after another
+  // (docs/ARCHITECTURE.md, "Cold caches"): the stage's object, its program, its output
+  // buffer and the first lines of its code.
+  const auto add = [this](const void* line) {
+    if (line != nullptr && prefetch_count_ < kPrefetch) prefetch_[prefetch_count_++] = line;
+  };
+  const auto stage = [&](const void* object, const void* program, const void* buffer, const void* code) {
+    add(object);
+    add(program);
+    add(buffer);
+    for (int line = 0; code != nullptr && line < kCodeLines; ++line) add(static_cast<const char*>(code) + 64 * line);
+  };
+  if (source_codec_) stage(source_codec_, source_codec_->program_data(), decoded_.get(), entry_of_decode(*source_codec_));
+  if (mapping_) stage(mapping_, mapping_->program_data(), mapped_.get(), entry_of_run(*mapping_));
+  if (target_codec_) stage(target_codec_, target_codec_->program_data(), encoded_.get(), entry_of_encode(*target_codec_));
 }
 
 std::string Connection::name() const { return source_.full_name() + " -> " + target_.full_name(); }
@@ -86,6 +125,7 @@ void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept
     forward(data, meta);
     return;
   }
+  for (int i = 0; i < prefetch_count_; ++i) __builtin_prefetch(prefetch_[i]);
   SampleMeta converted = meta;
   const std::byte* bytes = data;
   // The source's flat sample: what a deadband or a condition compares and a conversion

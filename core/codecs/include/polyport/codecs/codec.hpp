@@ -95,6 +95,9 @@ class Codec {
   virtual std::uint32_t max_wire_size(std::uint32_t flat_capacity) const noexcept = 0;
   // See InPlaceLayout; only the CDR codecs have one, for the types described there.
   virtual InPlaceLayout in_place() const noexcept { return {}; }
+  // The program decode() and encode() walk (its first bytes), for a caller that prefetches
+  // it; null when there is none.
+  virtual const void* program_data() const noexcept { return nullptr; }
 };
 
 // Each format's factory (cdr_codec.cpp, lcm_codec.cpp, dbc_codec.cpp). They refuse a type

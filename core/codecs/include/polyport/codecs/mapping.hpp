@@ -97,6 +97,8 @@ class MappingProgram {
                    std::uint32_t target_capacity, std::uint32_t& target_size) const noexcept = 0;
   // One line per step, for `polyportd check`.
   virtual std::vector<std::string> describe() const = 0;
+  // The steps run() walks (their first bytes), for a caller that prefetches them.
+  virtual const void* program_data() const noexcept { return nullptr; }
 };
 
 }  // namespace polyport

@@ -178,6 +178,12 @@ class Connection {
   const MappingProgram* mapping_;
   const Codec* source_codec_;  // the ports' codecs (set before wiring)
   const Codec* target_codec_;
+  // A converting sample's cold lines, prefetched together as it enters deliver() (set at
+  // construction): each stage's object, program, output buffer and first kCodeLines of code.
+  static constexpr int kCodeLines = 4;
+  static constexpr int kPrefetch = 3 * (3 + kCodeLines);
+  const void* prefetch_[kPrefetch] = {};
+  int prefetch_count_ = 0;
   InPlaceLayout in_place_{};  // the source's samples that need no decoding (codec.hpp)
   std::unique_ptr<ConnectionWatchdog> watchdog_;
   std::unique_ptr<EventCondition> condition_;
