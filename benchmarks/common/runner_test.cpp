@@ -15,7 +15,8 @@ using bench::paired_chunks;
 
 Json series(const std::vector<std::int64_t>& chunk_p50) { return {{"one_way_p50_per_chunk_ns", chunk_p50}}; }
 
-// A relay series of `n` chunks all at 50 us, and a via series `d[i]` above it chunk by chunk.
+// A relay series whose chunks drift upwards by 7 us each (as a machine's load may), and a via
+// series `d[i]` above it chunk by chunk: only the differences may count.
 Json paired(const std::vector<std::int64_t>& d) {
   std::vector<std::int64_t> via, relay;
   for (std::size_t i = 0; i < d.size(); ++i) {

@@ -23,9 +23,6 @@ std::unique_ptr<SampleBuffer> make_buffer(QueuePolicy policy, std::uint32_t dept
   }
   return nullptr;
 }
-}  // namespace
-
-namespace {
 
 // Where a stage's code starts (for prefetching it): GCC's extension that takes the function
 // out of a bound pointer to member function (the implementation a virtual call would reach);
