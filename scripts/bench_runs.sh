@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# A ping-pong benchmark run N times over, and the verdicts over the runs (run by hand, never a
+# test). One run's paired chunks leave out what moves between its chunks, not what a case's
+# start fixes for the whole run (thread placement, pool slots): a bar near its limit can hold
+# in one run and miss in the next. Each run here starts every process anew, so the N runs'
+# figures decide it (benchmarks/common/runs.py: the sign test over runs, given at 95 % or
+# more, i.e. from six runs).
+#
+#   scripts/bench_runs.sh N lcm|can|dds|matrix [options of that benchmark's script]
+#     N        runs (6 or more for a verdict)
+#     matrix   scripts/bench_matrix.sh; give it --part host or --part vcan (one part per series
+#              of runs), e.g. scripts/bench_runs.sh 6 matrix --part host --models lcm,fastdds
+# Placements and sizes take turns: where the options name neither, every other run measures
+# them in reverse order, so no case always runs first or last.
+# Writes benchmarks/results/<benchmark>_runs-<UTC stamp>.json and .md beside the runs' own
+# files, and prints the table. The environment of the benchmark's script applies
+# (POLYPORT_BENCH_ROUNDS, ...).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+usage() {
+  echo "usage: $0 N lcm|can|dds|matrix [options of scripts/bench_<benchmark>.sh]" >&2
+  exit 2
+}
+[ $# -ge 2 ] || usage
+runs="$1"
+kind="$2"
+shift 2
+[[ "$runs" =~ ^[1-9][0-9]*$ ]] || usage
+case "$kind" in
+  lcm|can|dds) script=(scripts/bench_pingpong.sh "$kind") ;;
+  matrix)
+    if [ "${1:-}" != --part ] || { [ "${2:-}" != host ] && [ "${2:-}" != vcan ]; }; then
+      echo "$0: matrix runs need --part host or --part vcan first" >&2
+      exit 2
+    fi
+    script=(scripts/bench_matrix.sh) ;;
+  *) usage ;;
+esac
+[ "$runs" -ge 6 ] || echo "note: with $runs runs no verdict reaches 95 %; it takes 6" >&2
+
+# The runner's defaults, in reverse, for the odd runs (only for what the options leave open).
+reversed=()
+case " $* " in *" --placements "*) ;; *)
+  case "$kind" in
+    can) ;;  # the guest runs unpinned only
+    matrix) [ "${2:-}" = vcan ] || reversed+=(--placements "one-core,unpinned") ;;
+    *) reversed+=(--placements "one-core,unpinned") ;;
+  esac ;;
+esac
+case " $* " in *" --sizes "*) ;; *)
+  case "$kind" in
+    lcm|dds|matrix) reversed+=(--sizes "1024,16") ;;  # the matrix's CAN pairs: FD 64 B, then classic 8 B
+  esac ;;
+esac
+
+files=()
+for ((i = 1; i <= runs; i++)); do
+  extra=()
+  [ $((i % 2)) -eq 1 ] || extra=("${reversed[@]}")
+  echo "== run $i of $runs${extra:+ (${extra[*]})}" >&2
+  before=$(ls benchmarks/results 2>/dev/null || true)
+  rc=0
+  "${script[@]}" "$@" "${extra[@]}" || rc=$?
+  # The runner's JSON results of this run: new files with cases (not the report's own .md/.png).
+  while IFS= read -r name; do
+    case "$name" in *.json) ;; *) continue ;; esac
+    grep -qxF "$name" <<< "$before" && continue
+    /usr/bin/python3 -c 'import json, sys; sys.exit(0 if "cases" in json.load(open(sys.argv[1])) else 1)' \
+      "benchmarks/results/$name" 2>/dev/null && files+=("benchmarks/results/$name")
+  done < <(ls benchmarks/results)
+  [ "$rc" -eq 0 ] || echo "run $i exited with $rc (its cases without targets are left out of the verdicts)" >&2
+done
+[ "${#files[@]}" -gt 0 ] || { echo "no run wrote a result" >&2; exit 1; }
+name=$kind
+[ "$kind" = matrix ] && name="matrix-$2"
+out="benchmarks/results/${name}_runs-$(date -u +%Y%m%dT%H%M%SZ)"
+/usr/bin/python3 benchmarks/common/runs.py --out "$out" "${files[@]}"
+echo "written: $out.json, $out.md" >&2
