@@ -11,12 +11,16 @@
 #     matrix   scripts/bench_matrix.sh; give it --part host or --part vcan (one part per series
 #              of runs), e.g. scripts/bench_runs.sh 6 matrix --part host --models lcm,fastdds
 # Placements and sizes take turns: where the options name neither, every other run measures
-# them in reverse order, so no case always runs first or last.
+# them in reverse order, so no case always runs first or last (the order of the DDS vendors
+# and of the matrix's pairs stays the runner's). Ctrl-C or SIGTERM stops the running benchmark
+# and the series; a run that writes no result ends the series, and the verdicts cover the runs
+# before it.
 # Writes benchmarks/results/<benchmark>_runs-<UTC stamp>.json and .md beside the runs' own
 # files, and prints the table. The environment of the benchmark's script applies
 # (POLYPORT_BENCH_ROUNDS, ...).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/bench_common.sh
 usage() {
   echo "usage: $0 N lcm|can|dds|matrix [options of scripts/bench_<benchmark>.sh]" >&2
   exit 2
@@ -27,18 +31,18 @@ kind="$2"
 shift 2
 [[ "$runs" =~ ^[1-9][0-9]*$ ]] || usage
 case "$kind" in
-  lcm|can|dds) script=(scripts/bench_pingpong.sh "$kind") ;;
+  lcm|can|dds) script=(scripts/bench_pingpong.sh "$kind"); pattern="${kind}_pingpong" ;;
   matrix)
     if [ "${1:-}" != --part ] || { [ "${2:-}" != host ] && [ "${2:-}" != vcan ]; }; then
       echo "$0: matrix runs need --part host or --part vcan first" >&2
       exit 2
     fi
-    script=(scripts/bench_matrix.sh) ;;
+    script=(scripts/bench_matrix.sh); pattern=matrix ;;
   *) usage ;;
 esac
 [ "$runs" -ge 6 ] || echo "note: with $runs runs no verdict reaches 95 %; it takes 6" >&2
 
-# The runner's defaults, in reverse, for the odd runs (only for what the options leave open).
+# The runner's defaults, in reverse, for the even runs (only for what the options leave open).
 reversed=()
 case " $* " in *" --placements "*) ;; *)
   case "$kind" in
@@ -59,16 +63,26 @@ for ((i = 1; i <= runs; i++)); do
   [ $((i % 2)) -eq 1 ] || extra=("${reversed[@]}")
   echo "== run $i of $runs${extra:+ (${extra[*]})}" >&2
   before=$(ls benchmarks/results 2>/dev/null || true)
-  rc=0
-  "${script[@]}" "$@" "${extra[@]}" || rc=$?
-  # The runner's JSON results of this run: new files with cases (not the report's own .md/.png).
-  while IFS= read -r name; do
-    case "$name" in *.json) ;; *) continue ;; esac
+  # bench_run: SIGINT / SIGTERM to this script stop the running benchmark too.
+  bench_run "${script[@]}" "$@" "${extra[@]}"
+  rc=$bench_rc
+  case $rc in 130|143) echo "interrupted in run $i: no summary" >&2; exit "$rc" ;; esac
+  # This run's results: the benchmark's own new files with cases (not the report's .md/.png).
+  found=0
+  for path in benchmarks/results/"$pattern"-*.json; do
+    name=${path##*/}
+    [[ "$name" =~ ^${pattern}-[0-9]{8}T[0-9]{6}Z(-vcan)?\.json$ ]] || continue
     grep -qxF "$name" <<< "$before" && continue
     /usr/bin/python3 -c 'import json, sys; sys.exit(0 if "cases" in json.load(open(sys.argv[1])) else 1)' \
-      "benchmarks/results/$name" 2>/dev/null && files+=("benchmarks/results/$name")
-  done < <(ls benchmarks/results)
-  [ "$rc" -eq 0 ] || echo "run $i exited with $rc (its cases without targets are left out of the verdicts)" >&2
+      "$path" 2>/dev/null || continue
+    files+=("$path")
+    found=1
+  done
+  if [ "$found" -eq 0 ]; then
+    echo "run $i wrote no result (exit status $rc): the series stops here" >&2
+    break
+  fi
+  [ "$rc" -eq 0 ] || echo "run $i exited with $rc: its cases without targets are left out of the verdicts" >&2
 done
 [ "${#files[@]}" -gt 0 ] || { echo "no run wrote a result" >&2; exit 1; }
 name=$kind

@@ -17,9 +17,12 @@ Per case (placement, vendor or pair, size) and run:
                from the series' chunk figures in results that predate it), or its series'
                medians' difference where the run has no chunk figures
   CPU          polyportd's CPU time per round trip - the relay's
-  all CPU      the same of all processes of the path (ping, middle, pong): in a one-CPU guest
-               a round trip costs the CPU time of its processes, so this one is wall time
-               there, not tick-sampled noise
+  all CPU      the same of all processes of the path (ping, middle, pong)
+  round trip   the mean round trip via polyport - via the relay: where one CPU runs the whole
+               path (the one-CPU vcan guest, the one-core placement) a round trip costs the CPU
+               time of its processes, and the ends are the same programs on both paths, so
+               this is the middle's extra CPU per round trip, read from a clock that does not
+               tick (the guest charges CPU time in 10 ms ticks)
   in-to-out    polyport's own in-to-out p99, the worst connection
 Verdicts on the runs' median: via - relay <= +2 us, CPU <= 0, holds / misses / undecided as
 paired_chunks says it, but only at 95 % confidence or more (six runs and up); in-to-out p99
@@ -33,6 +36,7 @@ import sys
 ALLOWANCE_NS = 2000
 # Below this the runs decide nothing: the sign test reaches 96.9 % with 6 runs, 93.8 % with 5.
 MIN_CONFIDENCE = 0.95
+SUMMARY_SUFFIX = "_runs"  # the benchmark name of what this writes
 IN_TO_OUT_BAR_NS = 1000
 KEY_FIELDS = ("placement", "vendor", "from", "to", "size_bytes")
 
@@ -64,18 +68,20 @@ def sign_interval(values, allowance):
               "allowance_ns": allowance, "verdict": verdict}
     if confidence < MIN_CONFIDENCE and verdict != "undecided":
         result["verdict"] = "undecided"
-        result["why"] = "%d runs: the interval would say %s at only %.1f %% (6 runs give 96.9 %%)" % (
-            n, verdict, 100 * confidence)
+        result["why"] = "%d runs: would say %s, at %.1f %%" % (n, verdict, 100 * confidence)
     return result
 
 
 def targets_of(case):
-    """The case's relay targets: "targets" (lcm, can, matrix) or "against_native_relay" (dds)."""
-    for field in ("targets", "against_native_relay"):
-        t = case.get(field)
-        if isinstance(t, dict) and "relay_one_way_p50_ns" in t:
-            return t
-    return case.get("targets") or {}
+    """The case's targets: "targets", with the DDS runner's "against_native_relay" joined to it
+    (that one holds the DDS relay figures)."""
+    t = dict(case.get("targets") or {})
+    t.update(case.get("against_native_relay") or {})
+    return t
+
+
+def series_cpu(case, series, process):
+    return ((case.get(series) or {}).get("cpu_per_round_trip_ns") or {}).get(process)
 
 
 def paired_median(case):
@@ -90,29 +96,36 @@ def paired_median(case):
         return None
     d = sorted(v - r for v, r in zip(via, relay))
     n = len(d)
-    return d[n // 2] if n % 2 == 1 else (d[n // 2 - 1] + d[n // 2]) // 2
+    return d[n // 2] if n % 2 == 1 else int((d[n // 2 - 1] + d[n // 2]) / 2)  # as C++ divides
 
 
 def figures(case):
     """One run's figures of one case, None where the run has none."""
     t = targets_of(case)
     paired = paired_median(case)
-    series = None
+    series = t.get("via_polyport_minus_relay_p50_ns")  # the DDS runner's
     if t.get("via_one_way_p50_ns") is not None and t.get("relay_one_way_p50_ns") is not None:
         series = t["via_one_way_p50_ns"] - t["relay_one_way_p50_ns"]
-    cpu = None
-    if t.get("polyportd_cpu_per_round_trip_ns") is not None and t.get("relay_cpu_per_round_trip_ns") is not None:
-        cpu = t["polyportd_cpu_per_round_trip_ns"] - t["relay_cpu_per_round_trip_ns"]
+    # The targets' CPU figures (lcm, can, matrix), else the series' own (dds).
+    middle = t.get("polyportd_cpu_per_round_trip_ns", series_cpu(case, "via_polyport", "polyportd"))
+    relay = t.get("relay_cpu_per_round_trip_ns", series_cpu(case, "via_native_relay", "relay"))
+    cpu = None if middle is None or relay is None else middle - relay
     all_cpu = None
-    via_all = ((case.get("via_polyport") or {}).get("cpu_per_round_trip_ns") or {}).get("all")
-    relay_all = ((case.get("via_native_relay") or {}).get("cpu_per_round_trip_ns") or {}).get("all")
+    via_all = series_cpu(case, "via_polyport", "all")
+    relay_all = series_cpu(case, "via_native_relay", "all")
     if via_all is not None and relay_all is not None:
         all_cpu = via_all - relay_all
+    rtt = None
+    via_rtt = ((case.get("via_polyport") or {}).get("rtt_ns") or {}).get("mean")
+    relay_rtt = ((case.get("via_native_relay") or {}).get("rtt_ns") or {}).get("mean")
+    if via_rtt is not None and relay_rtt is not None:
+        rtt = via_rtt - relay_rtt
     return {"via_minus_relay_ns": series if paired is None else paired,
             "from_chunks": paired is not None,
             "series_medians_ns": series,
             "cpu_ns": cpu,
             "all_cpu_ns": all_cpu,
+            "round_trip_mean_ns": rtt,
             "in_to_out_p99_ns": t.get("polyport_in_to_out_p99_ns")}
 
 
@@ -140,6 +153,8 @@ def load(paths):
             raise ValueError("%s: cannot read: %s" % (path, e))
         if not isinstance(run, dict) or not isinstance(run.get("cases"), list):
             raise ValueError("%s: not a ping-pong benchmark's result (no \"cases\")" % path)
+        if str(run.get("benchmark", "")).endswith(SUMMARY_SUFFIX):
+            raise ValueError("%s: a summary over runs (give the runs' own files)" % path)
         runs.append((path, run))
     kinds = sorted({str(run.get("benchmark")) for _, run in runs})
     if len(kinds) != 1:
@@ -165,12 +180,13 @@ def summarize(runs):
             "via_minus_relay": sign_interval(values("via_minus_relay_ns"), ALLOWANCE_NS),
             "cpu_polyportd_minus_relay": sign_interval(values("cpu_ns"), 0),
             "all_cpu_via_minus_relay": sign_interval(values("all_cpu_ns"), 0),
+            "round_trip_mean_via_minus_relay": sign_interval(values("round_trip_mean_ns"), 0),
             "in_to_out_p99_worst_ns": max(in_to_out) if in_to_out else None,
             "in_to_out_p99_within_1us_every_run": (all(v <= IN_TO_OUT_BAR_NS for v in in_to_out)
                                                    if in_to_out else None),
         })
     return {
-        "benchmark": runs[0][1].get("benchmark"),
+        "benchmark": "%s%s" % (runs[0][1].get("benchmark"), SUMMARY_SUFFIX),
         "bars": "per case over the runs' values: via - relay (each run's paired chunks' median) <= +2 us; "
                 "polyportd's CPU per round trip - the relay's <= 0; in-to-out p99 <= 1 us in every run",
         "method": "sign test on the runs' values (each run an independent start of every process), "
@@ -188,29 +204,38 @@ def us(ns):
 def verdict_text(s):
     if not s:
         return "-"
-    return "%s [%s, %s] %.0f %% **%s**" % (us(s["median_ns"]), us(s["interval_ns"][0]), us(s["interval_ns"][1]),
+    text = "%s [%s, %s] %.0f %% **%s**" % (us(s["median_ns"]), us(s["interval_ns"][0]), us(s["interval_ns"][1]),
                                           100 * s["confidence"], s["verdict"])
+    return text + (" (%s)" % s["why"] if "why" in s else "")
 
 
 def markdown(summary):
     revisions = sorted({str(r["git_revision"]) for r in summary["runs"]})
-    lines = ["# %s over %d runs" % (summary["benchmark"], len(summary["runs"])), "",
+    lines = ["# %s over %d runs" % (summary["benchmark"][:-len(SUMMARY_SUFFIX)], len(summary["runs"])), "",
              "Revisions: %s. Runs: %s." % (", ".join(revisions),
-                                           ", ".join(str(r["started_utc"]) for r in summary["runs"])), "",
+                                           ", ".join(str(r["started_utc"]) for r in summary["runs"])), ""]
+    if len(revisions) > 1:
+        lines += ["**The runs are of %d revisions** (\"+dirty\": tracked files differed from the commit); "
+                  "they are pooled as given." % len(revisions), ""]
+    lines += [
              "Per case, one value per run (µs); over the runs: median [sign-test interval] confidence verdict. "
              "via − relay is each run's paired chunks' median (bar ≤ +2); CPU is polyportd's per round trip "
-             "minus the relay's (bar ≤ 0); all CPU is that of every process of the path.", "",
+             "minus the relay's (bar ≤ 0); all CPU is that of every process of the path; the mean round trip's "
+             "difference is the middle's extra CPU per round trip where one CPU runs the whole path (the vcan "
+             "guest, one core). A value in *italics* is a run's series medians' difference (no chunk figures).", "",
              "| case | via − relay per run | via − relay over runs | CPU per run | CPU over runs | "
-             "all CPU over runs | in-to-out p99 worst |",
-             "|---|---|---|---|---|---|---|"]
+             "all CPU over runs | mean round trip, via − relay, over runs | in-to-out p99 worst |",
+             "|---|---|---|---|---|---|---|---|"]
     for c in summary["cases"]:
-        lines.append("| %s | %s | %s | %s | %s | %s | %s |" % (
+        lines.append("| %s | %s | %s | %s | %s | %s | %s | %s |" % (
             c["label"],
-            " ".join(us(r["via_minus_relay_ns"]) for r in c["runs"]),
+            " ".join(us(r["via_minus_relay_ns"]) if r["from_chunks"] or r["via_minus_relay_ns"] is None
+                     else "*%s*" % us(r["via_minus_relay_ns"]) for r in c["runs"]),
             verdict_text(c["via_minus_relay"]),
             " ".join(us(r["cpu_ns"]) for r in c["runs"]),
             verdict_text(c["cpu_polyportd_minus_relay"]),
             verdict_text(c["all_cpu_via_minus_relay"]),
+            verdict_text(c["round_trip_mean_via_minus_relay"]),
             "-" if c["in_to_out_p99_worst_ns"] is None else "%d ns" % c["in_to_out_p99_worst_ns"]))
     return "\n".join(lines) + "\n"
 
@@ -227,6 +252,8 @@ def main(argv):
     except ValueError as e:
         sys.stderr.write("runs.py: %s\n" % e)
         return 2
+    if len(summary["runs"]) < 6:
+        sys.stderr.write("runs.py: %d runs: no verdict reaches 95 %%; it takes 6\n" % len(summary["runs"]))
     text = markdown(summary)
     sys.stdout.write(text)
     if out:

@@ -23,8 +23,8 @@ def case(placement, size, via, relay, paired=None, cpu=None, all_cpu=None, in_to
         targets["polyport_in_to_out_p99_ns"] = in_to_out
     c = dict(key, placement=placement, size_bytes=size, targets=targets)
     if all_cpu is not None:
-        c["via_polyport"] = {"cpu_per_round_trip_ns": {"all": all_cpu[0]}}
-        c["via_native_relay"] = {"cpu_per_round_trip_ns": {"all": all_cpu[1]}}
+        c["via_polyport"] = {"cpu_per_round_trip_ns": {"all": all_cpu[0]}, "rtt_ns": {"mean": 2.0 * via}}
+        c["via_native_relay"] = {"cpu_per_round_trip_ns": {"all": all_cpu[1]}, "rtt_ns": {"mean": 2.0 * relay}}
     return c
 
 
@@ -46,8 +46,12 @@ class SignInterval(unittest.TestCase):
         s = runs.sign_interval([100, 200, 300, 400, 500], 2000)
         self.assertEqual(s["verdict"], "undecided")
         self.assertAlmostEqual(s["confidence"], 1 - 2 / 32)
-        self.assertIn("holds", s["why"])
-        self.assertIn("93.8 %", s["why"])
+        self.assertEqual(s["why"], "5 runs: would say holds, at 93.8 %")
+
+    def test_a_miss_below_95_percent_is_no_verdict_either(self):
+        s = runs.sign_interval([2100, 2200, 2300], 2000)
+        self.assertEqual((s["verdict"], s["interval_ns"]), ("undecided", [2100, 2300]))
+        self.assertEqual(s["why"], "3 runs: would say misses, at 75.0 %")
 
     def test_no_values_no_interval(self):
         self.assertIsNone(runs.sign_interval([], 0))
@@ -79,6 +83,9 @@ class Summaries(unittest.TestCase):
         self.assertEqual(unpinned["via_minus_relay"]["verdict"], "holds")
         self.assertEqual(unpinned["cpu_polyportd_minus_relay"]["verdict"], "holds")  # -1000 .. -1005
         self.assertEqual(unpinned["all_cpu_via_minus_relay"]["verdict"], "misses")  # +2000 .. +2005
+        self.assertEqual(unpinned["runs"][0]["round_trip_mean_ns"], 20000.0)
+        self.assertEqual(unpinned["round_trip_mean_via_minus_relay"]["verdict"], "misses")
+        self.assertIsNone(one_core["round_trip_mean_via_minus_relay"])  # no round trips in that case
         self.assertEqual(unpinned["in_to_out_p99_worst_ns"], 405)
         self.assertTrue(unpinned["in_to_out_p99_within_1us_every_run"])
         self.assertEqual([r["via_minus_relay_ns"] for r in one_core["runs"]], [2500, 2501, 2502, 2503, 2504, 2505])
@@ -96,6 +103,19 @@ class Summaries(unittest.TestCase):
         self.assertEqual((f["via_minus_relay_ns"], f["from_chunks"], f["series_medians_ns"]), (5, True, 10000))
         c["via_native_relay"]["one_way_p50_per_chunk_ns"].pop()  # counts differ: the series' medians
         self.assertEqual(runs.figures(c)["via_minus_relay_ns"], 10000)
+
+    def test_dds_results_give_their_relay_and_cpu_figures(self):
+        # The DDS runner: the relay's figures in "against_native_relay", the CPU in the series.
+        c = {"placement": "one-core", "vendor": "fastdds", "size_bytes": 16,
+             "targets": {"via_one_way_p50_ns": 70000, "polyport_in_to_out_p99_ns": 300},
+             "against_native_relay": {"relay_one_way_p50_ns": 69000, "via_polyport_minus_relay_p50_ns": 1000,
+                                      "via_minus_relay_paired_chunks": {"via_minus_relay_p50_ns": 700}},
+             "via_polyport": {"cpu_per_round_trip_ns": {"polyportd": 60000, "all": 140000}},
+             "via_native_relay": {"cpu_per_round_trip_ns": {"relay": 61500, "all": 139000}}}
+        f = runs.figures(c)
+        self.assertEqual((f["via_minus_relay_ns"], f["series_medians_ns"], f["cpu_ns"], f["all_cpu_ns"],
+                          f["in_to_out_p99_ns"]), (700, 1000, -1500, 1000, 300))
+        self.assertEqual(runs.label(runs.case_key(c)), "one-core fastdds 16 B")
 
     def test_matrix_cases_are_told_apart_by_their_pair(self):
         with tempfile.TemporaryDirectory() as d:
@@ -119,6 +139,11 @@ class Summaries(unittest.TestCase):
             with self.assertRaisesRegex(ValueError, "c.json: not a ping-pong benchmark's result"):
                 runs.load([other])
             self.assertEqual(runs.main([os.path.join(d, "missing.json")]), 2)
+            summary = os.path.join(d, "s.json")
+            with open(summary, "w") as f:
+                json.dump(runs.summarize(runs.load([lcm])), f)
+            with self.assertRaisesRegex(ValueError, "s.json: a summary over runs"):
+                runs.load([summary])
 
     def test_out_writes_the_table_and_the_figures(self):
         with tempfile.TemporaryDirectory() as d:
