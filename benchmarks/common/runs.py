@@ -61,7 +61,7 @@ def sign_interval(values, allowance):
     while k + 1 <= (n + 1) // 2 and 2 * tail[k] <= 0.05:
         k += 1
     low, high = d[k - 1], d[n - k]
-    median = d[n // 2] if n % 2 == 1 else (d[n // 2 - 1] + d[n // 2]) / 2
+    median = median_of(d)
     confidence = 1 - 2 * tail[k - 1]
     verdict = "holds" if high <= allowance else "misses" if low > allowance else "undecided"
     result = {"runs": n, "median_ns": median, "interval_ns": [low, high], "confidence": confidence,
@@ -72,6 +72,12 @@ def sign_interval(values, allowance):
     return result
 
 
+def median_of(d):
+    """The median of the sorted list `d` (non-empty)."""
+    n = len(d)
+    return d[n // 2] if n % 2 == 1 else (d[n // 2 - 1] + d[n // 2]) / 2
+
+
 def targets_of(case):
     """The case's targets: "targets", with the DDS runner's "against_native_relay" joined to it
     (that one holds the DDS relay figures)."""
@@ -80,8 +86,13 @@ def targets_of(case):
     return t
 
 
-def series_cpu(case, series, process):
-    return ((case.get(series) or {}).get("cpu_per_round_trip_ns") or {}).get(process)
+def series_figure(case, series, group, field):
+    """case[series][group][field], None where any of it is missing."""
+    return ((case.get(series) or {}).get(group) or {}).get(field)
+
+
+def difference(a, b):
+    return None if a is None or b is None else a - b
 
 
 def paired_median(case):
@@ -94,9 +105,7 @@ def paired_median(case):
     relay = (case.get("via_native_relay") or {}).get("one_way_p50_per_chunk_ns") or []
     if not via or len(via) != len(relay):
         return None
-    d = sorted(v - r for v, r in zip(via, relay))
-    n = len(d)
-    return d[n // 2] if n % 2 == 1 else int((d[n // 2 - 1] + d[n // 2]) / 2)  # as C++ divides
+    return int(median_of(sorted(v - r for v, r in zip(via, relay))))  # as C++ divides
 
 
 def figures(case):
@@ -106,20 +115,17 @@ def figures(case):
     series = t.get("via_polyport_minus_relay_p50_ns")  # the DDS runner's
     if t.get("via_one_way_p50_ns") is not None and t.get("relay_one_way_p50_ns") is not None:
         series = t["via_one_way_p50_ns"] - t["relay_one_way_p50_ns"]
+    def both(group, field):
+        return difference(series_figure(case, "via_polyport", group, field),
+                          series_figure(case, "via_native_relay", group, field))
     # The targets' CPU figures (lcm, can, matrix), else the series' own (dds).
-    middle = t.get("polyportd_cpu_per_round_trip_ns", series_cpu(case, "via_polyport", "polyportd"))
-    relay = t.get("relay_cpu_per_round_trip_ns", series_cpu(case, "via_native_relay", "relay"))
-    cpu = None if middle is None or relay is None else middle - relay
-    all_cpu = None
-    via_all = series_cpu(case, "via_polyport", "all")
-    relay_all = series_cpu(case, "via_native_relay", "all")
-    if via_all is not None and relay_all is not None:
-        all_cpu = via_all - relay_all
-    rtt = None
-    via_rtt = ((case.get("via_polyport") or {}).get("rtt_ns") or {}).get("mean")
-    relay_rtt = ((case.get("via_native_relay") or {}).get("rtt_ns") or {}).get("mean")
-    if via_rtt is not None and relay_rtt is not None:
-        rtt = via_rtt - relay_rtt
+    cpu = difference(
+        t.get("polyportd_cpu_per_round_trip_ns",
+              series_figure(case, "via_polyport", "cpu_per_round_trip_ns", "polyportd")),
+        t.get("relay_cpu_per_round_trip_ns",
+              series_figure(case, "via_native_relay", "cpu_per_round_trip_ns", "relay")))
+    all_cpu = both("cpu_per_round_trip_ns", "all")
+    rtt = both("rtt_ns", "mean")
     return {"via_minus_relay_ns": series if paired is None else paired,
             "from_chunks": paired is not None,
             "series_medians_ns": series,
