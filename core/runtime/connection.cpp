@@ -1,8 +1,11 @@
 // A connection's delivery and hand-off. deliver() is the forwarding path on the writer's
 // thread; take() is the reader's side. The buffer (pull mode) is owned by the connection
-// and allocated once here.
+// and allocated once here. Whatever a sample's hand-over counts and records, it adds
+// serially (serial_counter.hpp): one writer at a time reaches it (the port's writer, or the
+// timer thread through enter / try_enter), one reader takes.
 #include "polyport/runtime/connection.hpp"
 
+#include "polyport/base/serial_counter.hpp"
 #include "polyport/runtime/component.hpp"
 
 #include <algorithm>
@@ -100,7 +103,7 @@ std::string Connection::conversion() const {
 }
 
 void Connection::deliver(const std::byte* data, const SampleMeta& meta) noexcept {
-  counters_.received.fetch_add(1, std::memory_order_relaxed);
+  add_serial(counters_.received);
   if (const std::uint32_t gate = gate_.load(std::memory_order_relaxed); gate != 0 && !subscription_turn(gate))
       [[unlikely]] {
     return;
@@ -394,7 +397,7 @@ void Connection::hand_over_claimed(const std::byte* data, const SampleMeta& meta
     const Status status = to_sink(data, meta);
     if (!count) return;
     if (status == Status::ok) {
-      counters_.delivered.fetch_add(1, std::memory_order_relaxed);
+      add_serial(counters_.delivered);
     } else {
       counters_.dropped_sink_error.fetch_add(1, std::memory_order_relaxed);
     }
@@ -402,26 +405,26 @@ void Connection::hand_over_claimed(const std::byte* data, const SampleMeta& meta
   }
   const PushResult result = latest_ ? latest_->push_direct(data, meta) : buffer_->push(data, meta);
   const MonoTime stored = mono_now();
-  latency_.record((stored - meta.t_in).count);
-  if (meta.t_source.ns != 0) transit_.record((stored - meta.t_source).count);
+  latency_.record_serial((stored - meta.t_in).count);
+  if (meta.t_source.ns != 0) transit_.record_serial((stored - meta.t_source).count);
   if (!count) return;
   switch (result) {
     case PushResult::stored:
-      counters_.delivered.fetch_add(1, std::memory_order_relaxed);
+      add_serial(counters_.delivered);
       break;
     case PushResult::overwritten:
-      counters_.delivered.fetch_add(1, std::memory_order_relaxed);
-      counters_.overwritten.fetch_add(1, std::memory_order_relaxed);
+      add_serial(counters_.delivered);
+      add_serial(counters_.overwritten);
       break;
     case PushResult::dropped_oldest:
-      counters_.delivered.fetch_add(1, std::memory_order_relaxed);
-      counters_.dropped_oldest.fetch_add(1, std::memory_order_relaxed);
+      add_serial(counters_.delivered);
+      add_serial(counters_.dropped_oldest);
       break;
     case PushResult::dropped_newest:
-      counters_.dropped_queue_full.fetch_add(1, std::memory_order_relaxed);
+      add_serial(counters_.dropped_queue_full);
       break;
     case PushResult::too_large:
-      counters_.dropped_too_large.fetch_add(1, std::memory_order_relaxed);
+      add_serial(counters_.dropped_too_large);
       break;
   }
 }
@@ -429,10 +432,10 @@ void Connection::hand_over_claimed(const std::byte* data, const SampleMeta& meta
 Status Connection::to_sink(const std::byte* data, const SampleMeta& meta) noexcept {
   // polyport's own time ends where the sink (an adaptor, or a foreign SDK's write) begins.
   const MonoTime handed = mono_now();
-  latency_.record((handed - meta.t_in).count);
-  if (meta.t_source.ns != 0) transit_.record((handed - meta.t_source).count);
+  latency_.record_serial((handed - meta.t_in).count);
+  if (meta.t_source.ns != 0) transit_.record_serial((handed - meta.t_source).count);
   const Status status = target_.sink()->on_sample(data, meta);
-  sink_time_.record((mono_now() - handed).count);
+  sink_time_.record_serial((mono_now() - handed).count);
   return status;
 }
 
@@ -473,8 +476,8 @@ PopResult Connection::take(std::byte* dst, std::uint32_t capacity, SampleMeta& m
   if (!watchdog_) {
     const PopResult result = buffer_->pop(dst, capacity, meta);
     if (result == PopResult::new_data) {
-      counters_.read.fetch_add(1, std::memory_order_relaxed);
-      age_.record((mono_now() - meta.t_in).count);
+      add_serial(counters_.read);
+      age_.record_serial((mono_now() - meta.t_in).count);
     }
     return result;
   }
@@ -492,8 +495,8 @@ PopResult Connection::take(std::byte* dst, std::uint32_t capacity, SampleMeta& m
       return take_safe(dst, capacity, meta, now);
     }
     reader_has_safe_ = false;
-    counters_.read.fetch_add(1, std::memory_order_relaxed);
-    age_.record((now - meta.t_in).count);
+    add_serial(counters_.read);
+    age_.record_serial((now - meta.t_in).count);
   }
   return result;
 }

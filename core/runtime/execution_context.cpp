@@ -18,6 +18,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "polyport/base/serial_counter.hpp"
 #include "polyport/runtime/component_api.hpp"
 #include "polyport/runtime/service.hpp"
 #include "polyport/runtime/thread_scheduling.hpp"
@@ -206,8 +207,9 @@ void ExecutionContext::run() {
       if (notify) component.notify_idle();
     }
     const MonoTime cycle_end = mono_now();
-    cycles_.fetch_add(1, std::memory_order_relaxed);
-    cycle_time_.record((cycle_end - cycle_start).count);
+    // This thread alone counts and records its cycles (serial_counter.hpp).
+    add_serial(cycles_);
+    cycle_time_.record_serial((cycle_end - cycle_start).count);
 
     // Read once per cycle: a set_period() takes effect from this deadline on.
     const Nanos period = this->period();
@@ -221,7 +223,7 @@ void ExecutionContext::run() {
     }
     sleep_until(deadline, settings_.spin < period ? settings_.spin : period);
     if (stop_requested_.load(std::memory_order_acquire)) break;
-    jitter_.record((mono_now() - deadline).count);
+    jitter_.record_serial((mono_now() - deadline).count);
   }
   // Let a waiting command caller fall back to running inline.
   std::lock_guard<PiMutex> lock(command_mutex_);

@@ -4,10 +4,14 @@
 // construction except by buckets(), which returns a vector for reporting.
 // Threads: record() runs on the forwarding threads (any number of them, concurrently) and
 // is the hot path: a handful of relaxed atomic operations, no allocation, no lock.
+// record_serial() runs on one thread at a time (the forwarding path's writer, or a thread that
+// took over from it through a synchronising operation): plain loads and stores.
 // summarize(), percentile() and buckets() run on a reporting thread and read the counters
 // while they may still be changing; the result is a near snapshot, not an exact one.
 // reset() is meant for a quiet moment; records racing with it may be partly kept.
 #include "polyport/runtime/histogram.hpp"
+
+#include "polyport/base/serial_counter.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -76,6 +80,17 @@ void LatencyHistogram::record(std::int64_t value_ns) noexcept {
   cur = max_.load(std::memory_order_relaxed);
   while (v > cur && !max_.compare_exchange_weak(cur, v, std::memory_order_relaxed)) {
   }
+}
+
+void LatencyHistogram::record_serial(std::int64_t value_ns) noexcept {
+  const std::int64_t v = value_ns < 0 ? 0 : value_ns;
+  add_serial(counts_[static_cast<std::size_t>(bucket_index(v))]);
+  add_serial(total_);
+  // Unsigned, so that it wraps as the atomic add does instead of overflowing.
+  const auto sum = static_cast<std::uint64_t>(sum_.load(std::memory_order_relaxed)) + static_cast<std::uint64_t>(v);
+  sum_.store(static_cast<std::int64_t>(sum), std::memory_order_relaxed);
+  if (v < min_.load(std::memory_order_relaxed)) min_.store(v, std::memory_order_relaxed);
+  if (v > max_.load(std::memory_order_relaxed)) max_.store(v, std::memory_order_relaxed);
 }
 
 LatencyHistogram::Summary LatencyHistogram::summarize() const noexcept {

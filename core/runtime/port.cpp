@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "polyport/base/serial_counter.hpp"
 #include "polyport/runtime/component.hpp"
 #include "polyport/runtime/connection.hpp"
 #include "polyport/runtime/push_server.hpp"
@@ -66,12 +67,12 @@ Status DataOutPort::write(const void* data, std::uint32_t size, MonoTime t_sourc
 }
 
 Status DataOutPort::forward(const void* data, std::uint32_t size, MonoTime t_source) noexcept {
-  written_.fetch_add(1, std::memory_order_relaxed);
+  add_serial(written_);  // one writer at a time (port.hpp)
   const MonoTime now = mono_now();
   last_write_.store(now.ns, std::memory_order_relaxed);
   const ConnectionSet::List& list = connections_.current();
   if (list.size == 0) {
-    unconnected_.fetch_add(1, std::memory_order_relaxed);
+    add_serial(unconnected_);
     return Status::not_connected;
   }
   const SampleMeta meta{size, now, t_source};

@@ -101,10 +101,10 @@ void FdReactor::remove(int fd) noexcept {
   // The thread may have taken this socket's event from epoll_wait before the DEL and be
   // calling its handler now. Wake it and wait until it finishes a round begun after the DEL
   // had been read: by then it is past any call for this socket.
-  const std::uint64_t round = rounds_.load(std::memory_order_acquire);
+  const std::uint32_t round = rounds_.load(std::memory_order_acquire);
   const std::uint64_t one = 1;
   (void)::write(wake_fd_, &one, sizeof one);
-  for (std::uint64_t seen = round; seen == round; seen = rounds_.load(std::memory_order_acquire)) {
+  for (std::uint32_t seen = round; seen == round; seen = rounds_.load(std::memory_order_acquire)) {
     rounds_.wait(seen, std::memory_order_acquire);
   }
 }
@@ -169,11 +169,12 @@ void FdReactor::run() noexcept {
       }
     }
     if (ready < 0 && errno != EINTR) break;
-    rounds_.fetch_add(1, std::memory_order_acq_rel);
+    // This thread alone counts rounds: a release store, not a locked add on every round.
+    rounds_.store(rounds_.load(std::memory_order_relaxed) + 1, std::memory_order_release);
     rounds_.notify_all();
   }
   // A remove() must not wait for a thread that has left: count one more round for it.
-  rounds_.fetch_add(1, std::memory_order_acq_rel);
+  rounds_.store(rounds_.load(std::memory_order_relaxed) + 1, std::memory_order_release);
   rounds_.notify_all();
 }
 

@@ -102,8 +102,11 @@ class FdReactor {
   std::mutex supervised_mutex_;
   std::vector<Supervised*> supervised_;
   std::atomic<bool> stopping_{false};
-  // Rounds of epoll_wait + dispatch completed; remove() waits for the one in progress.
-  std::atomic<std::uint64_t> rounds_{0};
+  // Rounds of epoll_wait + dispatch completed (wrapping); remove() waits for the one in
+  // progress. 32 bits, the futex's own width: notify_all() after each round is then one load
+  // while nobody waits, where a 64-bit atomic's goes through a word shared by every waiter in
+  // the process and takes a locked add each round.
+  std::atomic<std::uint32_t> rounds_{0};
   std::thread thread_;
   std::optional<ThreadScheduling> scheduling_;  // under start_mutex_
   SchedulingOutcome applied_;

@@ -32,6 +32,8 @@
 #include "dds/ddsi/ddsi_sertype.h"
 #include "dds/ddsi/q_radmin.h"
 
+#include "polyport/base/serial_counter.hpp"
+
 namespace polyport::cyclonedds {
 
 namespace {
@@ -491,7 +493,7 @@ void on_data_available(dds_entity_t reader, void* arg) noexcept {
         const RawSerdata* raw = as_raw(serdata);
         state->callback(reinterpret_cast<const std::byte*>(raw->bytes()), raw->size,
                         monotonic_from_dds_time(info.source_timestamp));
-        state->received.fetch_add(1, std::memory_order_relaxed);
+        add_serial(state->received);  // Cyclone calls a reader's listener one at a time
       } else {
         state->foreign.fetch_add(1, std::memory_order_relaxed);
       }

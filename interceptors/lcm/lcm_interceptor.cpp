@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "polyport/base/serial_counter.hpp"
 #include "polyport/runtime/component_api.hpp"
 
 namespace polyport::lcm {
@@ -96,7 +97,7 @@ class ServiceChannels final : public RpcTransport {
 
 void LcmInterceptor::ChannelReader::on_message(const void* data, std::uint32_t size) noexcept {
   if (!active.load(std::memory_order_acquire)) return;
-  received.fetch_add(1, std::memory_order_relaxed);
+  add_serial(received);  // the instance's receive thread alone counts messages in
   switch (check_message(channel_, data, size)) {
     case MessageCheck::ok:
       break;

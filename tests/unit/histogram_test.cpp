@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <mutex>
 #include <random>
 #include <thread>
 #include <vector>
@@ -237,6 +238,51 @@ TEST(LatencyHistogram, ConcurrentRecordsAddUp) {
   for (const auto& bucket : h.buckets()) in_buckets += bucket.second;
   EXPECT_EQ(in_buckets, 2u * kPerThread);
   // Each thread's values average offset + 2499.5 (i % 5000 over whole cycles of 5000).
+  EXPECT_DOUBLE_EQ(s.mean, (10 + 1'000'000 + 2 * 2499.5) / 2.0);
+}
+
+// record_serial is record() for one thread at a time: the same buckets, count, sum and bounds.
+TEST(LatencyHistogram, SerialRecordsMatchAtomicOnes) {
+  LatencyHistogram atomic;
+  LatencyHistogram serial;
+  std::mt19937_64 rng(7);
+  std::uniform_int_distribution<std::int64_t> value(-50, 5'000'000);
+  for (int i = 0; i < 20'000; ++i) {
+    const std::int64_t v = value(rng);
+    atomic.record(v);
+    serial.record_serial(v);
+  }
+  const auto a = atomic.summarize();
+  const auto s = serial.summarize();
+  EXPECT_EQ(s.count, a.count);
+  EXPECT_EQ(s.min, a.min);
+  EXPECT_EQ(s.max, a.max);
+  EXPECT_DOUBLE_EQ(s.mean, a.mean);
+  EXPECT_EQ(s.p50, a.p50);
+  EXPECT_EQ(s.p999, a.p999);
+  EXPECT_EQ(serial.buckets(), atomic.buckets());
+}
+
+// Threads taking turns through a mutex (as a port's writers and the timer thread take turns at
+// a connection) lose no serial record.
+TEST(LatencyHistogram, SerialRecordsHandedOverThroughALockAddUp) {
+  LatencyHistogram h;
+  std::mutex turn;
+  constexpr int kPerThread = 100'000;
+  auto work = [&](std::int64_t offset) {
+    for (int i = 0; i < kPerThread; ++i) {
+      const std::lock_guard<std::mutex> lock(turn);
+      h.record_serial(offset + i % 5000);
+    }
+  };
+  std::thread a(work, 10);
+  std::thread b(work, 1'000'000);
+  a.join();
+  b.join();
+  const auto s = h.summarize();
+  EXPECT_EQ(s.count, 2u * kPerThread);
+  EXPECT_EQ(s.min, 10);
+  EXPECT_EQ(s.max, 1'000'000 + 4999);
   EXPECT_DOUBLE_EQ(s.mean, (10 + 1'000'000 + 2 * 2499.5) / 2.0);
 }
 

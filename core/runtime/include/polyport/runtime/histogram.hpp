@@ -1,7 +1,9 @@
 // A lock-free log-linear latency histogram (HdrHistogram-like): values in nanoseconds fall
 // into buckets of 2^kSubBits linear sub-buckets per power of two, so the relative error of a
 // reported percentile is below 2^-kSubBits. record() is wait-free (relaxed atomic adds) and
-// may be called from any thread; summarize() reads a consistent-enough snapshot from another.
+// may be called from any thread; record_serial() is the cheaper form for a histogram that one
+// thread at a time records into (serial_counter.hpp says when that holds); summarize() reads
+// a consistent-enough snapshot from another thread.
 #pragma once
 
 #include <array>
@@ -36,6 +38,9 @@ class LatencyHistogram {
   LatencyHistogram() noexcept;
 
   [[gnu::hot]] void record(std::int64_t value_ns) noexcept;  // negative values count as 0
+  // record() without locked instructions: for one recording thread at a time, each handing
+  // over to the next through a synchronising operation (serial_counter.hpp).
+  [[gnu::hot]] void record_serial(std::int64_t value_ns) noexcept;
   Summary summarize() const noexcept;
   std::int64_t percentile(double p) const noexcept;  // p in [0, 100]
   // Non-empty buckets as (highest value the bucket holds, count), ascending.
