@@ -112,8 +112,9 @@ void LcmInterceptor::ChannelReader::on_message(const void* data, std::uint32_t s
       return;
   }
   // Loop prevention (lcm_instance.hpp, ChannelEchoes): only on a channel polyport also
-  // publishes on this instance, and there only a hash of the bytes and a few atomic loads.
-  if (echoes.publishers.load(std::memory_order_relaxed) != 0 &&
+  // publishes on this instance, and there, while an echo is pending, a hash of the bytes and a
+  // few atomic loads.
+  if (echoes.publishers.load(std::memory_order_relaxed) != 0 && !echoes.table.empty() &&
       echoes.table.consume(message_fingerprint(data, size), mono_now())) {
     loop_dropped.fetch_add(1, std::memory_order_relaxed);
     return;

@@ -494,6 +494,7 @@ void SocketCanInterceptor::on_frame(const canfd_frame& frame, mmsghdr& received)
   // Loop prevention (can_reactor.hpp, CanEchoes): only a frame sent on this host, only while
   // polyport sends on the interface.
   if ((header.msg_flags & MSG_DONTROUTE) != 0 && echoes_.senders.load(std::memory_order_relaxed) != 0 &&
+      !echoes_.table.empty() &&
       echoes_.table.consume(frame_fingerprint(frame.can_id, frame.len, frame.data), mono_now())) {
     loop_dropped_.fetch_add(1, std::memory_order_relaxed);
     return;

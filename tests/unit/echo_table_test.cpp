@@ -97,6 +97,35 @@ TEST(EchoTable, ConcurrentSendersAndAReceiverLoseNoEcho) {
   }
   for (auto& thread : threads) thread.join();
   EXPECT_EQ(dropped.load(), kThreads * kPerThread);
+  EXPECT_TRUE(table.empty()) << "every entry was consumed";
+}
+
+// empty() lets a receiver skip hashing a message: it must hold exactly while no entry could
+// match, live or expired.
+TEST(EchoTable, EmptyExactlyWhileNoEntryIsLeft) {
+  EchoTable table;
+  const std::uint64_t f = fingerprint_of("pose 1");
+  EXPECT_TRUE(table.empty());
+  ASSERT_TRUE(table.expect(f, 0, kNow));
+  EXPECT_TRUE(table.empty()) << "no receiver of polyport's: nothing recorded";
+  ASSERT_TRUE(table.expect(f, 2, kNow));
+  EXPECT_FALSE(table.empty());
+  EXPECT_TRUE(table.consume(f, kNow));
+  EXPECT_FALSE(table.empty()) << "one share left";
+  EXPECT_TRUE(table.consume(f, kNow));
+  EXPECT_TRUE(table.empty());
+
+  ASSERT_TRUE(table.expect(f, 1, kNow));
+  table.forget(f);
+  EXPECT_TRUE(table.empty()) << "forgotten";
+
+  // An echo that never came: its entry stays until a new one takes the slot over.
+  ASSERT_TRUE(table.expect(f, 1, kNow));
+  EXPECT_FALSE(table.consume(f, kNow + EchoTable::kLifetime));
+  EXPECT_FALSE(table.empty());
+  ASSERT_TRUE(table.expect(f, 1, kNow + EchoTable::kLifetime));
+  EXPECT_TRUE(table.consume(f, kNow + EchoTable::kLifetime));
+  EXPECT_TRUE(table.empty()) << "the reused slot is counted once";
 }
 
 }  // namespace

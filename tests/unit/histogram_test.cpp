@@ -220,25 +220,32 @@ TEST(LatencyHistogram, ResetClearsEverything) {
   EXPECT_DOUBLE_EQ(after.mean, 42.0);
 }
 
-TEST(LatencyHistogram, ConcurrentRecordsAddUp) {
+// Two threads record `per_thread` values each, offset + i % 5000 with offsets 10 and
+// 1 000 000, through `record`: the histogram must hold every one of them.
+template <class Record>
+void expect_two_threads_add_up(int per_thread, Record record) {
   LatencyHistogram h;
-  constexpr int kPerThread = 300'000;
-  auto work = [&h](std::int64_t offset) {
-    for (int i = 0; i < kPerThread; ++i) h.record(offset + i % 5000);
+  auto work = [&](std::int64_t offset) {
+    for (int i = 0; i < per_thread; ++i) record(h, offset + i % 5000);
   };
   std::thread a(work, 10);
   std::thread b(work, 1'000'000);
   a.join();
   b.join();
   const auto s = h.summarize();
-  EXPECT_EQ(s.count, 2u * kPerThread);
+  const auto total = 2u * static_cast<std::uint64_t>(per_thread);
+  EXPECT_EQ(s.count, total);
   EXPECT_EQ(s.min, 10);
   EXPECT_EQ(s.max, 1'000'000 + 4999);
   std::uint64_t in_buckets = 0;
   for (const auto& bucket : h.buckets()) in_buckets += bucket.second;
-  EXPECT_EQ(in_buckets, 2u * kPerThread);
+  EXPECT_EQ(in_buckets, total);
   // Each thread's values average offset + 2499.5 (i % 5000 over whole cycles of 5000).
   EXPECT_DOUBLE_EQ(s.mean, (10 + 1'000'000 + 2 * 2499.5) / 2.0);
+}
+
+TEST(LatencyHistogram, ConcurrentRecordsAddUp) {
+  expect_two_threads_add_up(300'000, [](LatencyHistogram& h, std::int64_t v) { h.record(v); });
 }
 
 // record_serial is record() for one thread at a time: the same buckets, count, sum and bounds.
@@ -266,24 +273,11 @@ TEST(LatencyHistogram, SerialRecordsMatchAtomicOnes) {
 // Threads taking turns through a mutex (as a port's writers and the timer thread take turns at
 // a connection) lose no serial record.
 TEST(LatencyHistogram, SerialRecordsHandedOverThroughALockAddUp) {
-  LatencyHistogram h;
   std::mutex turn;
-  constexpr int kPerThread = 100'000;
-  auto work = [&](std::int64_t offset) {
-    for (int i = 0; i < kPerThread; ++i) {
-      const std::lock_guard<std::mutex> lock(turn);
-      h.record_serial(offset + i % 5000);
-    }
-  };
-  std::thread a(work, 10);
-  std::thread b(work, 1'000'000);
-  a.join();
-  b.join();
-  const auto s = h.summarize();
-  EXPECT_EQ(s.count, 2u * kPerThread);
-  EXPECT_EQ(s.min, 10);
-  EXPECT_EQ(s.max, 1'000'000 + 4999);
-  EXPECT_DOUBLE_EQ(s.mean, (10 + 1'000'000 + 2 * 2499.5) / 2.0);
+  expect_two_threads_add_up(100'000, [&turn](LatencyHistogram& h, std::int64_t v) {
+    const std::lock_guard<std::mutex> lock(turn);
+    h.record_serial(v);
+  });
 }
 
 }  // namespace

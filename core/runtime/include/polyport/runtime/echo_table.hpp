@@ -13,6 +13,9 @@
 // lock-free (compare-and-swap on each slot), no allocation. A slot is found by the
 // fingerprint's low bits with kProbe neighbours; when all are taken by live entries, expect
 // returns false and that one echo will not be recognized (the caller counts it).
+// Most receptions find the table empty (polyport sends nothing its own receivers on that
+// channel or interface would see): empty() says so from one word, before the caller hashes
+// the message and reads the clock, and consume() then touches no slot.
 #pragma once
 
 #include <array>
@@ -43,6 +46,10 @@ class EchoTable {
       const bool free = current == kFree ||
                         (current != kClaimed && slot.expires.load(std::memory_order_relaxed) <= now.ns);
       if (!free || !slot.fingerprint.compare_exchange_strong(current, kClaimed, std::memory_order_acquire)) continue;
+      // Counted before the entry is published (and so before the message is sent): a
+      // receiver that sees the echo sees the table non-empty. A reused expired entry was
+      // counted already.
+      if (current == kFree) occupied_.fetch_add(1, std::memory_order_relaxed);
       slot.remaining.store(receivers, std::memory_order_relaxed);
       slot.expires.store(now.ns + kLifetime.count, std::memory_order_relaxed);
       slot.fingerprint.store(fingerprint, std::memory_order_release);
@@ -51,9 +58,13 @@ class EchoTable {
     return false;
   }
 
+  // No entry at all, live or expired: no message can be an echo now.
+  bool empty() const noexcept { return occupied_.load(std::memory_order_acquire) == 0; }
+
   // On the receiving thread: true when this message is the echo of one polyport sent (one
   // share of its entry taken), to be dropped.
   bool consume(std::uint64_t fingerprint, MonoTime now) noexcept {
+    if (empty()) return false;
     fingerprint = usable(fingerprint);
     const std::size_t home = fingerprint & (kSlots - 1);
     for (std::size_t k = 0; k < kProbe; ++k) {
@@ -72,7 +83,9 @@ class EchoTable {
       }
       if (left == 1) {  // the last share: the slot is free again
         std::uint64_t expected = fingerprint;
-        slot.fingerprint.compare_exchange_strong(expected, kFree, std::memory_order_release);
+        if (slot.fingerprint.compare_exchange_strong(expected, kFree, std::memory_order_release)) {
+          occupied_.fetch_sub(1, std::memory_order_relaxed);
+        }
       }
       return true;
     }
@@ -86,7 +99,10 @@ class EchoTable {
     for (std::size_t k = 0; k < kProbe; ++k) {
       Slot& slot = slots_[(home + k) & (kSlots - 1)];
       std::uint64_t expected = fingerprint;
-      if (slot.fingerprint.compare_exchange_strong(expected, kFree, std::memory_order_release)) return;
+      if (slot.fingerprint.compare_exchange_strong(expected, kFree, std::memory_order_release)) {
+        occupied_.fetch_sub(1, std::memory_order_relaxed);
+        return;
+      }
     }
   }
 
@@ -103,6 +119,8 @@ class EchoTable {
     std::atomic<std::uint32_t> remaining{0};
   };
   std::array<Slot, kSlots> slots_{};
+  // Slots not free (claimed, live or expired): empty() reads it, in its own line.
+  alignas(64) std::atomic<std::uint32_t> occupied_{0};
 };
 
 // A 64-bit fingerprint of a message's bytes (and length): not cryptographic, only unlikely to
