@@ -429,29 +429,27 @@ void SocketCanInterceptor::on_error_frame(const canfd_frame& frame, MonoTime t_s
   emit(kind, state, t_source, error_class, frame.data);
 }
 
+SocketCanInterceptor::ReceiveBatch::ReceiveBatch() noexcept {
+  for (unsigned i = 0; i < kBatch; ++i) {
+    data[i] = iovec{&frames[i], sizeof frames[i]};
+    headers[i] = mmsghdr{};
+    headers[i].msg_hdr.msg_iov = &data[i];
+    headers[i].msg_hdr.msg_iovlen = 1;
+    headers[i].msg_hdr.msg_control = control[i];
+    headers[i].msg_hdr.msg_controllen = kControl;
+  }
+}
+
 void SocketCanInterceptor::on_readable() noexcept {
   const int fd = fd_.load(std::memory_order_acquire);
-  // Up to kBatch frames per system call (recvmmsg), all on the stack; a call that returns
-  // fewer has emptied the queue, so no further call is made to learn that (the epoll wait is
-  // level-triggered: a frame that arrives meanwhile wakes it again). At most kCalls calls per
-  // wake-up, so one busy interface cannot starve the others.
-  constexpr unsigned kBatch = 16;
+  // Up to kBatch frames per system call (recvmmsg); a call that returns fewer has emptied the
+  // queue, so no further call is made to learn that (the epoll wait is level-triggered: a
+  // frame that arrives meanwhile wakes it again). At most kCalls calls per wake-up, so one
+  // busy interface cannot starve the others.
   constexpr int kCalls = 4;
-  constexpr std::size_t kControl = CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t));
-  canfd_frame frames[kBatch];
-  iovec data[kBatch];
-  alignas(cmsghdr) char control[kBatch][kControl];
-  mmsghdr headers[kBatch];
+  ReceiveBatch& batch = *batch_;
   for (int call = 0; call < kCalls; ++call) {
-    for (unsigned i = 0; i < kBatch; ++i) {
-      data[i] = iovec{&frames[i], sizeof frames[i]};
-      headers[i] = mmsghdr{};
-      headers[i].msg_hdr.msg_iov = &data[i];
-      headers[i].msg_hdr.msg_iovlen = 1;
-      headers[i].msg_hdr.msg_control = control[i];
-      headers[i].msg_hdr.msg_controllen = kControl;
-    }
-    const int count = ::recvmmsg(fd, headers, kBatch, MSG_DONTWAIT, nullptr);
+    const int count = ::recvmmsg(fd, batch.headers, kBatch, MSG_DONTWAIT, nullptr);
     if (count < 0) {
       if (errno == EAGAIN || errno == EWOULDBLOCK) return;
       if (errno == EINTR) continue;
@@ -461,8 +459,11 @@ void SocketCanInterceptor::on_readable() noexcept {
       read_errors_.fetch_add(1, std::memory_order_relaxed);
       return;
     }
-    if (receiving_.load(std::memory_order_acquire)) {
-      for (int i = 0; i < count; ++i) on_frame(frames[i], headers[i]);
+    const bool receiving = receiving_.load(std::memory_order_acquire);
+    for (int i = 0; i < count; ++i) {
+      if (receiving) on_frame(batch.frames[i], batch.headers[i]);
+      // The kernel shortened the control length to what it wrote; the next call needs the room.
+      batch.headers[i].msg_hdr.msg_controllen = kControl;
     }
     if (static_cast<unsigned>(count) < kBatch) return;
   }

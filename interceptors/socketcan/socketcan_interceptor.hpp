@@ -6,7 +6,8 @@
 //
 // Threads and buffers (forwarding path):
 //  - bus -> polyport: on_readable runs on the reactor thread; recvmmsg copies up to 16
-//    frames with their SO_TIMESTAMPNS stamps into arrays on its stack in one system call;
+//    frames with their SO_TIMESTAMPNS stamps into the interceptor's receive batch (made
+//    and set up once at construction, used by the reactor thread alone) in one system call;
 //    SocketCanAdaptor::receive finds each frame's port by binary search in a sorted array
 //    built at construction (no allocation, no lock of ours), checks the length against the
 //    DBC message (a wrong one is counted and dropped) and writes the data bytes to the port.
@@ -38,6 +39,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <ctime>
 #include <memory>
 #include <string>
 #include <utility>
@@ -115,6 +117,18 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
   // What the interface is, as the last tick saw it.
   enum class Link : int { up, down, missing };
 
+  // recvmmsg's arrays: set up once, so that a wake-up for one frame writes no more than the
+  // kernel does (setting up 16 headers on the stack each time stored about 1.3 KiB).
+  static constexpr unsigned kBatch = 16;
+  static constexpr std::size_t kControl = CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t));
+  struct ReceiveBatch {
+    ReceiveBatch() noexcept;
+    mmsghdr headers[kBatch];
+    canfd_frame frames[kBatch];
+    iovec data[kBatch];
+    alignas(cmsghdr) char control[kBatch][kControl];
+  };
+
   void on_readable() noexcept override;
   // One frame of a batch from on_readable, with its timestamp and drop count.
   void on_frame(const canfd_frame& frame, mmsghdr& received) noexcept;
@@ -176,6 +190,7 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
   // CLOCK_REALTIME, polyport's t_source is CLOCK_MONOTONIC. A wall-clock step after start
   // shifts the converted stamps by the step until the next start.
   Nanos realtime_to_mono_{};
+  std::unique_ptr<ReceiveBatch> batch_ = std::make_unique<ReceiveBatch>();  // reactor thread
   bool registered_ = false;
   bool rewatch_ = false;  // attach() could not watch the new socket: the next attach() tries again
   bool active_ = false;
