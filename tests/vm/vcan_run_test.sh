@@ -145,6 +145,56 @@ else:
   fi
 }
 
+# "pid<TAB>command line" of every process below $1 (its children, theirs, ...).
+descendants() {
+  local -A children=()
+  local proc stat ppid
+  for proc in /proc/[0-9]*; do
+    { stat=$(< "$proc/stat"); } 2>/dev/null || continue
+    read -r _ ppid _ <<< "${stat##*) }"  # after the command name, which may hold spaces
+    children[$ppid]+=" ${proc#/proc/}"
+  done
+  local queue=("$1") pid child args
+  while [ ${#queue[@]} -gt 0 ]; do
+    pid=${queue[0]}
+    queue=("${queue[@]:1}")
+    for child in ${children[$pid]:-}; do
+      mapfile -d '' -t args 2>/dev/null < "/proc/$child/cmdline" || continue
+      printf '%s\t%s\n' "$child" "${args[*]}"
+      queue+=("$child")
+    done
+  done
+}
+
+# A process of the list still runs with the same command line.
+any_alive() {
+  local pid line args
+  while IFS=$'\t' read -r pid line; do
+    mapfile -d '' -t args 2>/dev/null < "/proc/$pid/cmdline" || continue
+    [ "${args[*]}" = "$line" ] && return 0
+  done < "$1"
+  return 1
+}
+
+case_a_signal_stops_everything_it_started() {
+  cd "$scratch" || return 1
+  "$runner" --timeout 120 -- bash -c 'touch "$1/started"; exec sleep 100' _ "$scratch" > "$scratch/out" 2> "$scratch/err" &
+  local runner_pid=$! i
+  for ((i = 0; i < 600; i++)); do [ -e "$scratch/started" ] && break; sleep 0.1; done
+  check "the command started within a minute" [ -e "$scratch/started" ]
+  descendants "$runner_pid" > "$scratch/started-processes"
+  echo "processes below the runner: $(wc -l < "$scratch/started-processes")"
+  check "it started processes" [ -s "$scratch/started-processes" ]
+  kill -TERM "$runner_pid"
+  wait "$runner_pid"
+  status=$?
+  check "status 143 after SIGTERM" [ "$status" -eq 143 ]
+  # SIGKILL takes effect when the process next runs: give them five seconds.
+  for ((i = 0; i < 50; i++)); do any_alive "$scratch/started-processes" || break; sleep 0.1; done
+  check "none of them runs any more (the guest's own processes included)" bash -c \
+    "$(declare -f any_alive); ! any_alive \"\$1\"" _ "$scratch/started-processes"
+}
+
 case_netns_backend_on_a_kernel_with_vcan() {
   # Inside the guest the kernel has vcan and the command is root: what a host with vcan
   # gets. The inner interfaces are private: the outer vcan0 is not among them.
