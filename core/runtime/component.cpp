@@ -114,8 +114,9 @@ void ComponentBase::enable_notifications(std::string port_name, bool automatic, 
                                                                PortDirection::output, &notifications_));
 }
 
-// The sample is built on the stack (the caller's thread, any of them) and copied by the port:
-// no allocation, no lock; the serial number orders notifications raised from several threads.
+// The sample is built on the stack and copied by the port: no allocation, no lock. One thread
+// at a time, as any output port is written (port.hpp); the serial number orders the
+// notifications of the threads that take turns (a context's and a passive caller's).
 Status ComponentBase::notify(NotificationKind kind) noexcept {
   if (notifications_ == nullptr) return Status::not_connected;
   ComponentNotification sample;

@@ -169,12 +169,13 @@ void FdReactor::run() noexcept {
       }
     }
     if (ready < 0 && errno != EINTR) break;
-    // This thread alone counts rounds: a release store, not a locked add on every round.
-    rounds_.store(rounds_.load(std::memory_order_relaxed) + 1, std::memory_order_release);
+    // seq_cst, not a plain store: notify_all() then reads whether anyone waits, and that read
+    // must not pass the new count (remove() registers as a waiter before it reads the count).
+    rounds_.fetch_add(1, std::memory_order_seq_cst);
     rounds_.notify_all();
   }
   // A remove() must not wait for a thread that has left: count one more round for it.
-  rounds_.store(rounds_.load(std::memory_order_relaxed) + 1, std::memory_order_release);
+  rounds_.fetch_add(1, std::memory_order_seq_cst);
   rounds_.notify_all();
 }
 

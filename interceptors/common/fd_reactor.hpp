@@ -105,7 +105,7 @@ class FdReactor {
   // Rounds of epoll_wait + dispatch completed (wrapping); remove() waits for the one in
   // progress. 32 bits, the futex's own width: notify_all() after each round is then one load
   // while nobody waits, where a 64-bit atomic's goes through a word shared by every waiter in
-  // the process and takes a locked add each round.
+  // the process and takes a second locked add each round.
   std::atomic<std::uint32_t> rounds_{0};
   std::thread thread_;
   std::optional<ThreadScheduling> scheduling_;  // under start_mutex_

@@ -69,6 +69,9 @@ class EchoTable {
     const std::size_t home = fingerprint & (kSlots - 1);
     for (std::size_t k = 0; k < kProbe; ++k) {
       Slot& slot = slots_[(home + k) & (kSlots - 1)];
+      // An expired entry (an echo that never came) stays counted until expect reuses its
+      // slot: freeing it here could free a live entry that expect has just put in its place
+      // with the same bytes (the CAS cannot tell the two apart), and lose that echo.
       if (slot.fingerprint.load(std::memory_order_acquire) != fingerprint) continue;
       if (slot.expires.load(std::memory_order_relaxed) <= now.ns) continue;  // expect reuses it
       std::uint32_t left = slot.remaining.load(std::memory_order_relaxed);
@@ -83,7 +86,7 @@ class EchoTable {
       }
       if (left == 1) {  // the last share: the slot is free again
         std::uint64_t expected = fingerprint;
-        if (slot.fingerprint.compare_exchange_strong(expected, kFree, std::memory_order_release)) {
+        if (slot.fingerprint.compare_exchange_strong(expected, kFree, std::memory_order_acq_rel)) {
           occupied_.fetch_sub(1, std::memory_order_relaxed);
         }
       }
@@ -99,7 +102,7 @@ class EchoTable {
     for (std::size_t k = 0; k < kProbe; ++k) {
       Slot& slot = slots_[(home + k) & (kSlots - 1)];
       std::uint64_t expected = fingerprint;
-      if (slot.fingerprint.compare_exchange_strong(expected, kFree, std::memory_order_release)) {
+      if (slot.fingerprint.compare_exchange_strong(expected, kFree, std::memory_order_acq_rel)) {
         occupied_.fetch_sub(1, std::memory_order_relaxed);
         return;
       }
