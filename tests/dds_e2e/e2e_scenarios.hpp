@@ -121,8 +121,13 @@ inline void client_scenario(DdsEndToEnd& t, const std::string& app, int domain_a
   EXPECT_EQ(checked_replies(*client, requests), 5);
   const Json stats = t.stop(*polyportd);
   ASSERT_EQ(stats["services"].size(), 1u);
-  // Every request reached polyport (the client waits for its writer to match) and was served.
-  EXPECT_EQ(stats["services"][0]["ok"], requests) << stats["services"].dump(2);
+  // Every answered call was served, and nothing was served that the client did not send. Not
+  // every request sent need arrive: the client's writer can see polyport's reader matched
+  // before that reader has matched the writer, and a volatile reader then drops the sample
+  // (seen under ASan: six requests, five served); the client resends it.
+  const int served = stats["services"][0]["ok"].get<int>();
+  EXPECT_GE(served, 5) << stats["services"].dump(2);
+  EXPECT_LE(served, requests) << stats["services"].dump(2);
 }
 
 // The in-process PeerCaller calls a DDS server (`program` on `domain`): a silent one (every
