@@ -51,7 +51,9 @@ bool has_invariant_tsc() noexcept {
 }
 
 // One CLOCK_MONOTONIC read paired with the TSC: the tightest bracket of a few tries, its
-// middle as the TSC at the read; and CLOCK_REALTIME's offset from it.
+// middle as the TSC at the read; and CLOCK_REALTIME's offset from it, from the tightest of a
+// few CLOCK_MONOTONIC brackets around a CLOCK_REALTIME read (where each read is a system call,
+// one bracket preempted midway put the offset tens of µs off).
 detail::TscPoint sample() noexcept {
   detail::TscPoint best;
   best.bracket = std::numeric_limits<std::int64_t>::max();
@@ -65,10 +67,16 @@ detail::TscPoint sample() noexcept {
       best.mono_ns = mono;
     }
   }
-  const std::int64_t mono_before = detail::system_ns(CLOCK_MONOTONIC);
-  const std::int64_t wall = detail::system_ns(CLOCK_REALTIME);
-  const std::int64_t mono_after = detail::system_ns(CLOCK_MONOTONIC);
-  best.wall_minus_mono_ns = wall - (mono_before + (mono_after - mono_before) / 2);
+  std::int64_t tightest = std::numeric_limits<std::int64_t>::max();
+  for (int i = 0; i < 5; ++i) {
+    const std::int64_t mono_before = detail::system_ns(CLOCK_MONOTONIC);
+    const std::int64_t wall = detail::system_ns(CLOCK_REALTIME);
+    const std::int64_t mono_after = detail::system_ns(CLOCK_MONOTONIC);
+    if (mono_after - mono_before < tightest) {
+      tightest = mono_after - mono_before;
+      best.wall_minus_mono_ns = wall - (mono_before + (mono_after - mono_before) / 2);
+    }
+  }
   return best;
 }
 
