@@ -166,14 +166,13 @@ descendants() {
   done
 }
 
-# A process of the list still runs with the same command line.
-any_alive() {
+# The pids of the list ($1, as descendants writes it) still running with the same command line.
+survivors() {
   local pid line args
   while IFS=$'\t' read -r pid line; do
     mapfile -d '' -t args 2>/dev/null < "/proc/$pid/cmdline" || continue
-    [ "${args[*]}" = "$line" ] && return 0
+    [ "${args[*]}" != "$line" ] || echo "$pid"
   done < "$1"
-  return 1
 }
 
 # In the user-mode Linux guest (the runner's choice where the host kernel has no vcan) this
@@ -193,15 +192,12 @@ case_a_signal_stops_everything_it_started() {
   status=$?
   check "status 143 after SIGTERM" [ "$status" -eq 143 ]
   # SIGKILL takes effect when the process next runs: give them five seconds.
-  for ((i = 0; i < 50; i++)); do any_alive "$scratch/started-processes" || break; sleep 0.1; done
-  check "none of them runs any more (the guest's own processes included)" bash -c \
-    "$(declare -f any_alive); ! any_alive \"\$1\"" _ "$scratch/started-processes"
+  for ((i = 0; i < 50; i++)); do [ -n "$(survivors "$scratch/started-processes")" ] || break; sleep 0.1; done
+  local left
+  left=$(survivors "$scratch/started-processes")
+  check "none of them runs any more (the guest's own processes included)" [ -z "$left" ]
   # Whatever survived a failure goes now, not at the guest's own timeout.
-  local pid line args
-  while IFS=$'\t' read -r pid line; do
-    mapfile -d '' -t args 2>/dev/null < "/proc/$pid/cmdline" || continue
-    [ "${args[*]}" != "$line" ] || kill -KILL "$pid" 2>/dev/null
-  done < "$scratch/started-processes"
+  [ -z "$left" ] || kill -KILL $left 2>/dev/null
 }
 
 case_netns_backend_on_a_kernel_with_vcan() {
