@@ -20,7 +20,7 @@
 
 namespace polyport::daemon {
 
-void register_models(ModelRegistry& registry) {
+void register_models(ModelRegistry& registry, [[maybe_unused]] const ModelOptions& options) {
   registry.add(std::make_unique<inproc::InprocModel>());
 #ifdef POLYPORT_WITH_CYCLONEDDS
   auto cyclone = std::make_unique<dds::DdsModel>("cyclonedds", cyclonedds::make_cyclonedds_domain,
@@ -35,7 +35,10 @@ void register_models(ModelRegistry& registry) {
   registry.add(std::make_unique<lcm::LcmModel>());
 #endif
 #ifdef POLYPORT_WITH_SOCKETCAN
-  registry.add(std::make_unique<socketcan::SocketCanModel>());
+  const ReactorIo can_io = options.can_io == "io_uring" ? ReactorIo::io_uring
+                           : options.can_io == "epoll"  ? ReactorIo::epoll
+                                                        : ReactorIo::automatic;
+  registry.add(std::make_unique<socketcan::SocketCanModel>(can_io));
 #endif
 }
 

@@ -78,6 +78,7 @@ struct Options {
   std::vector<std::string> record_connections;  // empty: every data connection
   std::uint32_t record_depth = 1024;
   std::string clock = "auto";  // auto, system, tsc: the clock of the forwarding path's stamps
+  std::string can_io = "auto";  // auto, io_uring, epoll: how the CAN receive thread waits
 };
 
 // The shipped plugins' folder: the build's lib/ for the binary of the build tree; for an
@@ -535,7 +536,7 @@ int run_daemon(const Options& options) {
 
   TypeRegistry types;
   ModelRegistry models;
-  daemon::register_models(models);
+  daemon::register_models(models, daemon::ModelOptions{options.can_io});
   Engine engine(models, types);
   ApplicationProfile application;
   if (!load(options, models, engine, types, &application)) {
@@ -797,6 +798,12 @@ int main(int argc, char** argv) {
                   "the clock of the forwarding path's stamps: system (clock_gettime), tsc (the CPU's invariant TSC "
                   "kept on CLOCK_MONOTONIC), auto (tsc where a clock_gettime is a system call); see docs/ARCHITECTURE.md")
       ->check(CLI::IsMember({"auto", "system", "tsc"}))
+      ->capture_default_str();
+  run->add_option("--can-io", options.can_io,
+                  "how the CAN receive thread waits: io_uring (a frame forwarded CAN -> CAN goes out with the "
+                  "thread's next wait, one system call for both), epoll, auto (io_uring where the kernel gives it); "
+                  "see docs/ARCHITECTURE.md")
+      ->check(CLI::IsMember({"auto", "io_uring", "epoll"}))
       ->capture_default_str();
   run->add_option("--metrics-address", options.metrics_address, "the address --metrics-port listens on")
       ->capture_default_str();

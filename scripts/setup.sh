@@ -19,6 +19,7 @@ packages=(
   liblcm-dev liblcm-bin  # LCM 1.3 (the lcm model) and lcm-gen: test peers, reference fingerprints
   clang libclang-rt-14-dev  # libFuzzer for the parser and decoder fuzz targets
   python3-matplotlib python3-numpy  # the wheelchair suite's report: tables and PNG plots
+  liburing-dev           # io_uring: the CAN receive thread sends what it forwards with its next wait
   libsystemd-dev         # sd_notify: polyportd under a Type=notify unit with the watchdog
   debootstrap            # scripts/test_deb.sh: a clean Debian 12 root to install the .deb in
   python3-prometheus-client  # the reference parser of the metrics test (Prometheus text format); the benchmarks read /metrics with it

@@ -98,6 +98,16 @@ void run_chunk(Path& path, int rounds, int warmup, const Placement& placement, c
   }
 }
 
+// polyportd run's further arguments for an A/B run (POLYPORT_BENCH_DAEMON_ARGS, split at
+// spaces; e.g. "--can-io epoll"); recorded in every result's header.
+std::vector<std::string> daemon_extra_args() {
+  std::vector<std::string> out;
+  const char* given = std::getenv("POLYPORT_BENCH_DAEMON_ARGS");
+  std::istringstream words(given != nullptr ? given : "");
+  for (std::string word; words >> word;) out.push_back(word);
+  return out;
+}
+
 }  // namespace
 
 void forward_stop_signals() {
@@ -334,8 +344,9 @@ std::optional<std::int64_t> run_case(const Chunking& chunking, const Placement& 
   const pid_t direct_pong = direct ? spawn(commands.direct_pong, dir / "pong-direct.out", placement) : -1;
   const pid_t via_pong = spawn(commands.via_pong, dir / "pong-via.out", placement);
   const pid_t relay_pong = spawn(commands.relay_pong, dir / "pong-relay.out", placement);
-  const pid_t daemon = spawn({POLYPORTD, "run", commands.app.string(), "-q", "--stats-json", stats_file.string()},
-                             dir / "polyportd.out", placement);
+  std::vector<std::string> daemon_args{POLYPORTD, "run", commands.app.string(), "-q", "--stats-json", stats_file.string()};
+  for (const std::string& arg : daemon_extra_args()) daemon_args.push_back(arg);
+  const pid_t daemon = spawn(daemon_args, dir / "polyportd.out", placement);
   const pid_t relay = spawn(commands.relay, dir / "relay.out", placement);
 
   std::vector<Path> paths{{"via", commands.via_ping, {{"polyportd", daemon}, {"pong", via_pong}}, {}},
@@ -518,6 +529,7 @@ Json result_header(const std::string& benchmark) {
                         {"loadavg_at_start", {load[0], load[1], load[2]}}}}};
   // In a guest (the vcan guest), the machine that runs it, as scripts/bench_pingpong.sh saw it.
   if (const char* outer = std::getenv("POLYPORT_BENCH_OUTER_HOST")) header["host"]["outer_host_at_start"] = outer;
+  header["polyportd_extra_args"] = daemon_extra_args();
   return header;
 }
 

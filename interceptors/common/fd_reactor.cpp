@@ -1,5 +1,8 @@
 #include "fd_reactor.hpp"
 
+#include <fcntl.h>
+#include <poll.h>
+#include <pthread.h>
 #include <sys/epoll.h>
 #include <sys/eventfd.h>
 #include <sys/timerfd.h>
@@ -8,24 +11,239 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <future>
 #include <string>
 #include <utility>
 
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#ifdef POLYPORT_WITH_IO_URING
+#include <liburing.h>
+#endif
+
 namespace polyport {
 
-namespace {
-// epoll_event.data.ptr of the timer descriptor (the wake-up descriptor has null).
-int timer_tag = 0;
-}  // namespace
+const char* to_string(ReactorIo io) noexcept {
+  switch (io) {
+    case ReactorIo::epoll: return "epoll";
+    case ReactorIo::io_uring: return "io_uring";
+    case ReactorIo::automatic: return "auto";
+  }
+  return "?";
+}
 
-FdReactor::FdReactor(std::string thread_name, std::string what)
-    : thread_name_(std::move(thread_name)), what_(std::move(what)) {}
+#ifdef POLYPORT_WITH_IO_URING
 
-std::shared_ptr<FdReactor> FdReactor::create(std::string thread_name, std::string what) {
-  return std::shared_ptr<FdReactor>(new FdReactor(std::move(thread_name), std::move(what)));
+// What the thread keeps for the ring; touched by the reactor thread alone once it runs.
+//
+// Every submission carries a tag: its kind in the top two bits, a registration's generation in
+// the next 30 and an index in the low 32. A descriptor's registration is one slot of `watched`,
+// reused after it is removed with a new generation, so a completion of a poll armed before the
+// removal (cancelled, or already on the completion queue) finds another generation and is
+// dropped. A send's tag names its slot of `sends`, whose bytes the kernel reads when the next
+// io_uring_enter submits it (MSG_DONTWAIT: it completes in that call, never later).
+struct FdReactor::Ring {
+  static constexpr unsigned kEntries = 256;
+  static constexpr unsigned kSends = 64;
+  static constexpr unsigned kCompletions = 32;  // taken from the queue per look
+  enum Kind : std::uint64_t { kPoll = 1, kSend = 2, kCancel = 3 };
+
+  struct Watched {
+    int fd = -1;
+    ReadableHandler* handler = nullptr;
+    std::uint32_t generation = 0;
+    bool active = false;
+  };
+  struct Send {
+    alignas(8) unsigned char bytes[kSendBytes];
+    SendTracker* tracker = nullptr;
+    std::uint64_t cookie = 0;
+  };
+
+  io_uring ring{};
+  bool live = false;  // `ring` was set up (and is to be torn down)
+  std::vector<Watched> watched;
+  Send sends[kSends];
+  unsigned free_sends[kSends];
+  unsigned free_count = kSends;
+  // Sends prepared whose completion has not been taken from the queue yet: the round's wait
+  // asks for that many completions and one more, so that a send completing in the call does
+  // not end the wait (the one system call is then the send and the wait for the next event).
+  unsigned sends_out = 0;
+
+  Ring() {
+    for (unsigned i = 0; i < kSends; ++i) free_sends[i] = kSends - 1 - i;
+  }
+  ~Ring() {
+    if (live) io_uring_queue_exit(&ring);
+  }
+
+  // io_uring_queue_init with the cheapest task-work settings this kernel takes; -errno.
+  int init() {
+    // Completions are reaped by this thread alone, in its wait: the kernel need not interrupt
+    // it for their work (5.19). Not IORING_SETUP_DEFER_TASKRUN: in the vcan guest (6.1) it made
+    // a forwarded frame's round trip ~25 us longer than COOP_TASKRUN, as long as epoll's.
+    const unsigned tries[] = {IORING_SETUP_COOP_TASKRUN, 0};
+    int rc = -EINVAL;
+    for (unsigned flags : tries) {
+      rc = io_uring_queue_init(kEntries, &ring, flags);
+      if (rc != -EINVAL) break;
+    }
+    if (rc < 0) return rc;
+    live = true;
+    io_uring_probe* probe = io_uring_get_probe_ring(&ring);
+    const bool has_all = probe != nullptr && io_uring_opcode_supported(probe, IORING_OP_POLL_ADD) &&
+                         io_uring_opcode_supported(probe, IORING_OP_POLL_REMOVE) &&
+                         io_uring_opcode_supported(probe, IORING_OP_SEND);
+    if (probe != nullptr) io_uring_free_probe(probe);
+    if (!has_all) return -EOPNOTSUPP;  // the destructor tears it down
+    return 0;
+  }
+
+  static std::uint64_t tag(Kind kind, std::uint32_t generation, std::uint32_t index) noexcept {
+    return (std::uint64_t{kind} << 62) | (std::uint64_t{generation & 0x3fffffffU} << 32) | index;
+  }
+
+  // A free submission entry; submits what is queued when there is none (the queue is then empty:
+  // null only if that submit failed, which needs a completion queue overflowing, and the
+  // queue's 512 entries are more than the polls, cancels and 64 sends that can be out at once).
+  io_uring_sqe* entry() noexcept {
+    io_uring_sqe* sqe = io_uring_get_sqe(&ring);
+    if (sqe == nullptr) {
+      (void)io_uring_submit(&ring);
+      sqe = io_uring_get_sqe(&ring);
+    }
+    return sqe;
+  }
+
+  void arm(std::uint32_t index) noexcept {
+    const Watched& w = watched[index];
+    io_uring_sqe* sqe = entry();
+    if (sqe == nullptr) return;  // see entry(): not seen to happen; the descriptor would go unwatched
+    io_uring_prep_poll_add(sqe, w.fd, POLLIN);
+    io_uring_sqe_set_data64(sqe, tag(kPoll, w.generation, index));
+  }
+
+  Result<void> add(int fd, ReadableHandler& handler) {
+    if (::fcntl(fd, F_GETFD) < 0) return make_error(std::string("io_uring poll of descriptor ") +
+                                                   std::to_string(fd) + ": " + std::strerror(errno));
+    std::uint32_t index = 0;
+    while (index < watched.size() && watched[index].active) ++index;
+    if (index == watched.size()) watched.emplace_back();  // the control side of the thread: may allocate
+    Watched& w = watched[index];
+    w.fd = fd;
+    w.handler = &handler;
+    w.generation = (w.generation + 1) & 0x3fffffffU;
+    w.active = true;
+    arm(index);
+    return {};
+  }
+
+  void remove(int fd) noexcept {
+    for (std::uint32_t index = 0; index < watched.size(); ++index) {
+      Watched& w = watched[index];
+      if (!w.active || w.fd != fd) continue;
+      const std::uint64_t armed = tag(kPoll, w.generation, index);
+      w.active = false;
+      w.generation = (w.generation + 1) & 0x3fffffffU;
+      // The armed poll holds the descriptor's file until it is cancelled (a dup2 over the number
+      // would otherwise leave it watching the old socket).
+      if (io_uring_sqe* sqe = entry()) {
+        io_uring_prep_poll_remove(sqe, armed);
+        io_uring_sqe_set_data64(sqe, tag(kCancel, 0, 0));
+      }
+    }
+  }
+
+  bool send(int fd, const void* data, std::uint32_t size, SendTracker& tracker, std::uint64_t cookie) noexcept {
+    if (size > kSendBytes) return false;
+    io_uring_sqe* sqe = free_count != 0 ? entry() : nullptr;
+    if (sqe == nullptr) {
+      // The caller writes the frame itself: what is queued goes first, so frames keep their order.
+      (void)io_uring_submit(&ring);
+      return false;
+    }
+    const unsigned index = free_sends[--free_count];
+    Send& s = sends[index];
+    std::memcpy(s.bytes, data, size);
+    s.tracker = &tracker;
+    s.cookie = cookie;
+    tracker.in_flight.fetch_add(1, std::memory_order_relaxed);
+    ++sends_out;
+    io_uring_prep_send(sqe, fd, s.bytes, size, MSG_DONTWAIT | MSG_NOSIGNAL);
+    io_uring_sqe_set_data64(sqe, tag(kSend, 0, index));
+    return true;
+  }
+
+  // The end of a send: its tracker told, its slot free again.
+  void finish_send(std::uint32_t index, int result) noexcept {
+    Send& s = sends[index];
+    SendTracker* tracker = s.tracker;
+    s.tracker = nullptr;
+    free_sends[free_count++] = index;
+    --sends_out;
+    tracker->on_send_done(result, s.cookie);
+    tracker->in_flight.fetch_sub(1, std::memory_order_release);
+  }
+
+  // After the thread's last round: every send still out is done, sent or not, so that no
+  // tracker waits for it (the kernel took it when the submit succeeded; else -ECANCELED).
+  void finish_all() noexcept {
+    io_uring_cqe* cqe = nullptr;
+    while (io_uring_peek_cqe(&ring, &cqe) == 0) {
+      const std::uint64_t user_data = cqe->user_data;
+      const int result = cqe->res;
+      io_uring_cqe_seen(&ring, cqe);
+      if ((user_data >> 62) == kSend) finish_send(static_cast<std::uint32_t>(user_data), result);
+    }
+    for (std::uint32_t index = 0; index < kSends; ++index) {
+      if (sends[index].tracker != nullptr) finish_send(index, -ECANCELED);
+    }
+  }
+
+  // One completion: a handler's turn (and its poll armed again), a send's result, or nothing.
+  void complete(std::uint64_t user_data, int result) noexcept {
+    const auto kind = static_cast<Kind>(user_data >> 62);
+    const auto index = static_cast<std::uint32_t>(user_data);
+    if (kind == kSend) {
+      finish_send(index, result);
+      return;
+    }
+    if (kind != kPoll || index >= watched.size()) return;
+    const auto generation = static_cast<std::uint32_t>(user_data >> 32) & 0x3fffffffU;
+    if (!watched[index].active || watched[index].generation != generation) return;  // removed since
+    if (result < 0) {
+      // The poll could not be armed: the descriptor was closed while watched, which its owner
+      // never does (sockets are replaced by dup2 under the same number, after a remove). Armed
+      // again it would fail again, so it stays unwatched, and says so once.
+      spdlog::error("io_uring poll of descriptor {} failed: {}; it is no longer watched", watched[index].fd,
+                    std::strerror(-result));
+      watched[index].active = false;
+      return;
+    }
+    watched[index].handler->on_readable();
+    // Armed again unless the handler removed it (the vector may have grown: index, not reference).
+    if (watched[index].active && watched[index].generation == generation) arm(index);
+  }
+};
+
+#else  // no liburing at build time: the thread always waits with epoll
+
+struct FdReactor::Ring {
+  int init() { return -ENOSYS; }
+  Result<void> add(int, ReadableHandler&) { return make_error("built without io_uring"); }
+  void remove(int) noexcept {}
+  bool send(int, const void*, std::uint32_t, SendTracker&, std::uint64_t) noexcept { return false; }
+};
+
+#endif
+
+FdReactor::FdReactor(std::string thread_name, std::string what, ReactorIo io)
+    : thread_name_(std::move(thread_name)), what_(std::move(what)), io_(io) {}
+
+std::shared_ptr<FdReactor> FdReactor::create(std::string thread_name, std::string what, ReactorIo io) {
+  return std::shared_ptr<FdReactor>(new FdReactor(std::move(thread_name), std::move(what), io));
 }
 
 FdReactor::~FdReactor() {
@@ -35,6 +253,7 @@ FdReactor::~FdReactor() {
     (void)::write(wake_fd_, &one, sizeof one);
     thread_.join();
   }
+  ring_.reset();
   if (timer_fd_ >= 0) ::close(timer_fd_);
   if (wake_fd_ >= 0) ::close(wake_fd_);
   if (epoll_fd_ >= 0) ::close(epoll_fd_);
@@ -44,27 +263,58 @@ Result<void> FdReactor::start() {
   const std::lock_guard lock(start_mutex_);
   if (thread_.joinable()) return {};
   // A failure closes what this call opened, so a later add() starts afresh and leaks nothing.
-  auto fail = [this](const char* what) {
-    const std::string message = std::string(what) + ": " + std::strerror(errno);
+  auto close_all = [this] {
     for (int* fd : {&timer_fd_, &wake_fd_, &epoll_fd_}) {
       if (*fd >= 0) ::close(*fd);
       *fd = -1;
     }
+  };
+  auto fail = [&](const char* what) {
+    const std::string message = std::string(what) + ": " + std::strerror(errno);
+    close_all();
     return make_error(message);
   };
   epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
   if (epoll_fd_ < 0) return fail("epoll_create1");
   wake_fd_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (wake_fd_ < 0) return fail("eventfd");
-  epoll_event event{};
-  event.events = EPOLLIN;
-  event.data.ptr = nullptr;  // the wake-up descriptor
-  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, wake_fd_, &event) != 0) return fail("epoll_ctl");
   timer_fd_ = ::timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC | TFD_NONBLOCK);
   if (timer_fd_ < 0) return fail("timerfd_create");
-  event.data.ptr = &timer_tag;
+  epoll_event event{};
+  event.events = EPOLLIN;
+  event.data.ptr = static_cast<ReadableHandler*>(&wake_);
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, wake_fd_, &event) != 0) return fail("epoll_ctl");
+  event.data.ptr = static_cast<ReadableHandler*>(&timer_);
   if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, timer_fd_, &event) != 0) return fail("epoll_ctl");
-  thread_ = std::thread([this] { run(); });
+  // The ring is made by the thread that alone submits to it; start() waits to know how it waits.
+  const ReactorIo asked = io_.load(std::memory_order_relaxed);
+  std::promise<int> ring_made;
+  std::future<int> ring_result = ring_made.get_future();
+  thread_ = std::thread([this, asked, &ring_made] {
+    thread_id_.store(static_cast<unsigned long>(pthread_self()), std::memory_order_release);
+    int rc = -EOPNOTSUPP;
+    if (asked != ReactorIo::epoll) {
+      auto ring = std::make_unique<Ring>();
+      rc = ring->init();
+      if (rc == 0) ring_ = std::move(ring);
+    }
+    io_.store(ring_ ? ReactorIo::io_uring : ReactorIo::epoll, std::memory_order_release);
+    const bool leave = asked == ReactorIo::io_uring && !ring_;
+    ring_made.set_value(rc);  // `ring_made` is start()'s: not touched after this
+    if (!leave) run();
+  });
+  const int ring_rc = ring_result.get();
+  if (asked == ReactorIo::io_uring && ring_rc != 0) {
+    thread_id_.store(0, std::memory_order_release);  // pthread_t values are reused
+    thread_.join();
+    close_all();
+    io_.store(asked, std::memory_order_release);
+    return make_error(std::string("io_uring_setup for ") + what_ + ": " + std::strerror(-ring_rc) +
+                      " (this kernel or a seccomp filter refuses io_uring; --can-io epoll waits with epoll)");
+  }
+  if (asked == ReactorIo::automatic && ring_rc != 0) {
+    spdlog::info("{} waits with epoll: io_uring_setup: {}", what_, std::strerror(-ring_rc));
+  }
   pthread_setname_np(thread_.native_handle(), thread_name_.c_str());
   apply_scheduling();
   return {};
@@ -90,6 +340,50 @@ nlohmann::json FdReactor::scheduling() const {
   return {{"asked", to_string(*scheduling_)}, {"realtime", applied_.realtime_applied}, {"pinned", applied_.pinned}};
 }
 
+bool FdReactor::on_thread() const noexcept {
+  const unsigned long id = thread_id_.load(std::memory_order_acquire);
+  return id != 0 && pthread_equal(static_cast<pthread_t>(id), pthread_self()) != 0;
+}
+
+bool FdReactor::on_reactor_thread(const std::function<void()>& change) {
+  if (on_thread()) {
+    change();
+    return true;
+  }
+  std::unique_lock lock(changes_mutex_);
+  if (thread_gone_) return false;
+  changes_.push_back(change);
+  const std::uint64_t ticket = ++changes_posted_;
+  lock.unlock();
+  const std::uint64_t one = 1;
+  (void)::write(wake_fd_, &one, sizeof one);
+  lock.lock();
+  changes_made_.wait(lock, [&] { return changes_done_ >= ticket || thread_gone_; });
+  // A thread that left its loop (an io_uring_enter error) watches nothing more: a change left
+  // for it is moot.
+  return changes_done_ >= ticket;
+}
+
+void FdReactor::run_changes() noexcept {
+  std::vector<std::function<void()>> now;
+  {
+    const std::lock_guard lock(changes_mutex_);
+    now.swap(changes_);
+  }
+  for (const auto& change : now) change();
+  {
+    const std::lock_guard lock(changes_mutex_);
+    changes_done_ += now.size();
+  }
+  changes_made_.notify_all();
+}
+
+void FdReactor::Wake::on_readable() noexcept {
+  std::uint64_t count = 0;
+  (void)::read(reactor->wake_fd_, &count, sizeof count);
+  if (reactor->ring_) reactor->run_changes();
+}
+
 Result<void> FdReactor::add(int fd, ReadableHandler& handler) {
   if (auto started = start(); !started) return started;
   return add_in_tick(fd, handler);
@@ -97,6 +391,10 @@ Result<void> FdReactor::add(int fd, ReadableHandler& handler) {
 
 void FdReactor::remove(int fd) noexcept {
   if (!thread_.joinable()) return;
+  if (io() == ReactorIo::io_uring) {
+    (void)on_reactor_thread([this, fd] { ring_->remove(fd); });
+    return;
+  }
   (void)::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd, nullptr);
   // The thread may have taken this socket's event from epoll_wait before the DEL and be
   // calling its handler now. Wake it and wait until it finishes a round begun after the DEL
@@ -109,16 +407,33 @@ void FdReactor::remove(int fd) noexcept {
   }
 }
 
-void FdReactor::remove_in_tick(int fd) noexcept { (void)::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd, nullptr); }
+void FdReactor::remove_in_tick(int fd) noexcept {
+  if (ring_) {
+    ring_->remove(fd);
+    return;
+  }
+  (void)::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd, nullptr);
+}
 
 Result<void> FdReactor::add_in_tick(int fd, ReadableHandler& handler) {
+  if (io() == ReactorIo::io_uring) {
+    Result<void> added = make_error(what_ + " has stopped (io_uring_enter failed)");
+    (void)on_reactor_thread([&] { added = ring_->add(fd, handler); });
+    return added;
+  }
   epoll_event event{};
   event.events = EPOLLIN;
-  event.data.ptr = &handler;
+  event.data.ptr = static_cast<ReadableHandler*>(&handler);
   if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &event) != 0) {
     return make_error(std::string("epoll_ctl(EPOLL_CTL_ADD): ") + std::strerror(errno));
   }
   return {};
+}
+
+bool FdReactor::send_with_next_wait(int fd, const void* data, std::uint32_t size, SendTracker& tracker,
+                                    std::uint64_t cookie) noexcept {
+  // on_thread() first: only the thread itself reads ring_ here.
+  return on_thread() && ring_ != nullptr && ring_->send(fd, data, size, tracker, cookie);
 }
 
 Result<void> FdReactor::watch(Supervised& supervised) {
@@ -154,29 +469,70 @@ void FdReactor::tick() noexcept {
 }
 
 void FdReactor::run() noexcept {
+  if (ring_) {
+    run_ring();
+  } else {
+    run_epoll();
+  }
+  {
+    const std::lock_guard lock(changes_mutex_);
+    thread_gone_ = true;
+  }
+  changes_made_.notify_all();
+  // A remove() must not wait for a thread that has left: count one more round for it.
+  rounds_.fetch_add(1, std::memory_order_seq_cst);
+  rounds_.notify_all();
+}
+
+void FdReactor::end_round() noexcept {
+  // seq_cst, not a plain store: notify_all() then reads whether anyone waits, and that read
+  // must not pass the new count (remove() registers as a waiter before it reads the count).
+  rounds_.fetch_add(1, std::memory_order_seq_cst);
+  rounds_.notify_all();
+}
+
+void FdReactor::run_epoll() noexcept {
   constexpr int kMaxEvents = 16;
   epoll_event events[kMaxEvents];
   while (!stopping_.load(std::memory_order_acquire)) {
     const int ready = ::epoll_wait(epoll_fd_, events, kMaxEvents, -1);
-    for (int i = 0; i < ready; ++i) {
-      if (events[i].data.ptr == &timer_tag) {
-        tick();
-      } else if (auto* handler = static_cast<ReadableHandler*>(events[i].data.ptr)) {
-        handler->on_readable();
-      } else {
-        std::uint64_t count = 0;
-        (void)::read(wake_fd_, &count, sizeof count);
-      }
-    }
+    for (int i = 0; i < ready; ++i) static_cast<ReadableHandler*>(events[i].data.ptr)->on_readable();
     if (ready < 0 && errno != EINTR) break;
-    // seq_cst, not a plain store: notify_all() then reads whether anyone waits, and that read
-    // must not pass the new count (remove() registers as a waiter before it reads the count).
-    rounds_.fetch_add(1, std::memory_order_seq_cst);
-    rounds_.notify_all();
+    end_round();
   }
-  // A remove() must not wait for a thread that has left: count one more round for it.
-  rounds_.fetch_add(1, std::memory_order_seq_cst);
-  rounds_.notify_all();
+}
+
+void FdReactor::run_ring() noexcept {
+#ifdef POLYPORT_WITH_IO_URING
+  Ring& r = *ring_;
+  (void)r.add(wake_fd_, wake_);
+  (void)r.add(timer_fd_, timer_);
+  struct Done {
+    std::uint64_t user_data;
+    int result;
+  };
+  Done done[Ring::kCompletions];
+  io_uring_cqe* cqes[Ring::kCompletions];
+  while (!stopping_.load(std::memory_order_acquire)) {
+    // Submits what the last round queued (its sends, the polls armed again) and waits for the
+    // next event: the round's one system call. The sends complete in the call (MSG_DONTWAIT),
+    // so it waits for their completions and one more.
+    const int rc = io_uring_submit_and_wait(&r.ring, r.sends_out + 1);
+    if (rc < 0 && rc != -EINTR && rc != -EAGAIN && rc != -EBUSY) {
+      spdlog::error("{}: io_uring_enter: {}; the thread stops", what_, std::strerror(-rc));
+      break;
+    }
+    // Copied out first: a handler's submission may need the room on the completion queue.
+    const unsigned n = io_uring_peek_batch_cqe(&r.ring, cqes, Ring::kCompletions);
+    for (unsigned i = 0; i < n; ++i) done[i] = Done{cqes[i]->user_data, cqes[i]->res};
+    io_uring_cq_advance(&r.ring, n);
+    for (unsigned i = 0; i < n; ++i) r.complete(done[i].user_data, done[i].result);
+    end_round();
+  }
+  // Sends still queued go out (or are given up), so no tracker waits for them forever.
+  (void)io_uring_submit(&r.ring);
+  r.finish_all();
+#endif
 }
 
 }  // namespace polyport

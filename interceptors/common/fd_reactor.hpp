@@ -1,14 +1,25 @@
-// One thread that waits on many descriptors (epoll) and calls their handlers: the receive
-// thread a model shares between all its sockets (SocketCAN: every CAN socket of the daemon;
-// LCM: every LCM instance's notify descriptor). The model hands it out; the interceptors hold
-// it; it goes with the last of them.
+// One thread that waits on many descriptors and calls their handlers: the receive thread a
+// model shares between all its sockets (SocketCAN: every CAN socket of the daemon; LCM: every
+// LCM instance's notify descriptor). The model hands it out; the interceptors hold it; it goes
+// with the last of them.
 //
-// Threads: the reactor thread waits in epoll_wait on the registered descriptors and a wake-up
-// eventfd, and calls a descriptor's handler when it is readable, so handlers run on it. add()
-// and remove() run on the control thread; after remove() returns, the handler is not running
-// and is not called again, so its owner may close the descriptor and go away.
+// How it waits (ReactorIo): epoll_wait, or an io_uring. With the ring every descriptor is a
+// one-shot poll armed again after its handler ran (level-triggered, as the epoll set is), and a
+// handler may hand the kernel a send with the thread's next wait (send_with_next_wait): the one
+// io_uring_enter that ends a round both sends what the round's handlers forwarded and waits for
+// the next descriptor, where write() + epoll_wait() are two system calls. The SocketCAN model
+// asks for the ring (polyportd --can-io); the thread falls back to epoll where the kernel gives
+// none (io_uring_setup refused: an old kernel, a seccomp filter, kernel.io_uring_disabled).
+//
+// Threads: the reactor thread waits on the registered descriptors and a wake-up eventfd, and
+// calls a descriptor's handler when it is readable, so handlers run on it. add() and remove()
+// run on the control thread; after remove() returns, the handler is not running and is not
+// called again, so its owner may close the descriptor and go away (with the ring, once its
+// SendTracker has no send in flight either). With the ring only the reactor thread touches the
+// submission queue: add() and remove() hand it the change (through the wake-up descriptor) and
+// wait until it is made.
 // The same thread can run a supervision tick: once something is watched, every kTickInterval
-// (a timerfd in the same epoll set) it calls on_tick() of each watched Supervised, which may
+// (a timerfd in the same set) it calls on_tick() of each watched Supervised, which may
 // re-create descriptors, log and report; the tick is not the forwarding path (it may allocate
 // and log) and never runs while a handler does, so both may write the same ports. watch() and
 // unwatch() run on the control thread; after unwatch() returns, on_tick is not running and is
@@ -17,7 +28,9 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -39,6 +52,33 @@ class ReadableHandler {
   virtual void on_readable() noexcept = 0;
 };
 
+// How a reactor's thread waits. `automatic`: the ring where the kernel gives one, else epoll.
+enum class ReactorIo { epoll, io_uring, automatic };
+const char* to_string(ReactorIo io) noexcept;
+
+// The owner of sends handed over with send_with_next_wait(). on_send_done() runs on the reactor
+// thread once the kernel took the send (result: the bytes sent, or -errno); `in_flight` counts
+// the sends not done yet. The owner must not go away, nor close the descriptor, before it is 0
+// (wait_sends_done(), from any other thread: the reactor finishes them within its next round,
+// and gives them up with -ECANCELED when its thread ends).
+class SendTracker {
+ public:
+  virtual void on_send_done(int result, std::uint64_t cookie) noexcept = 0;
+  void wait_sends_done() const noexcept {
+    for (int turn = 0; in_flight.load(std::memory_order_acquire) != 0; ++turn) {
+      if (turn < 100) {
+        std::this_thread::yield();
+      } else {
+        std::this_thread::sleep_for(std::chrono::microseconds(100));  // a real-time reactor sharing our CPU
+      }
+    }
+  }
+  std::atomic<std::uint32_t> in_flight{0};
+
+ protected:
+  ~SendTracker() = default;
+};
+
 // Checks and repairs what a handler cannot (an interface that went away), on the reactor
 // thread, every kTickInterval.
 class Supervised {
@@ -50,11 +90,15 @@ class Supervised {
 class FdReactor {
  public:
   static constexpr std::chrono::milliseconds kTickInterval{500};
+  // The most bytes one send_with_next_wait() takes (a CAN FD frame).
+  static constexpr std::uint32_t kSendBytes = 72;
 
   // `thread_name` (at most 15 characters) names the thread in /proc; `what` names it in the
   // scheduling warning ("the LCM receive thread"). Nothing is opened before the first add()
-  // or watch(), so a profile is checked on any host.
-  static std::shared_ptr<FdReactor> create(std::string thread_name, std::string what);
+  // or watch(), so a profile is checked on any host. `io`: how the thread is to wait; with
+  // ReactorIo::io_uring the first add() or watch() fails where the kernel gives no ring.
+  static std::shared_ptr<FdReactor> create(std::string thread_name, std::string what,
+                                           ReactorIo io = ReactorIo::epoll);
   virtual ~FdReactor();
   FdReactor(const FdReactor&) = delete;
   FdReactor& operator=(const FdReactor&) = delete;
@@ -68,6 +112,16 @@ class FdReactor {
   void remove_in_tick(int fd) noexcept;
   // Watches `fd` on a running thread (add() once the thread is started; a tick re-adding).
   Result<void> add_in_tick(int fd, ReadableHandler& handler);
+
+  // On the reactor thread (a handler, a tick): copies `size` (<= kSendBytes) bytes at `data`
+  // and hands them to the kernel as a send on `fd` (MSG_DONTWAIT) with the thread's next wait,
+  // which follows the round at once; `tracker` is told the result. False, having done nothing,
+  // when the caller is another thread or the thread waits with epoll, or no send slot is free:
+  // the caller then sends itself. No allocation, no lock, no system call.
+  bool send_with_next_wait(int fd, const void* data, std::uint32_t size, SendTracker& tracker,
+                           std::uint64_t cookie) noexcept;
+  // How the thread waits: `io` as asked until the thread has started, then what it uses.
+  ReactorIo io() const noexcept { return io_.load(std::memory_order_acquire); }
 
   // The scheduling a component asks for the thread (<receive_thread>); the strongest request
   // of all its components is applied when the thread starts, or at once when it runs already
@@ -83,13 +137,34 @@ class FdReactor {
   void unwatch(Supervised& supervised) noexcept;
 
  protected:
-  FdReactor(std::string thread_name, std::string what);
+  FdReactor(std::string thread_name, std::string what, ReactorIo io = ReactorIo::epoll);
 
  private:
+  struct Ring;  // the io_uring and what the thread keeps for it (fd_reactor.cpp)
+  // The wake-up descriptor's and the timer's handlers (both backends).
+  struct Wake final : ReadableHandler {
+    FdReactor* reactor;
+    explicit Wake(FdReactor* r) : reactor(r) {}
+    void on_readable() noexcept override;
+  };
+  struct Timer final : ReadableHandler {
+    FdReactor* reactor;
+    explicit Timer(FdReactor* r) : reactor(r) {}
+    void on_readable() noexcept override { reactor->tick(); }
+  };
+
   Result<void> start();
   void apply_scheduling();  // under start_mutex_
   void run() noexcept;
+  void run_epoll() noexcept;
+  void run_ring() noexcept;
+  void end_round() noexcept;
   void tick() noexcept;
+  bool on_thread() const noexcept;
+  // Ring: runs `change` on the reactor thread (at once when called there) and waits for it;
+  // false when the thread has left its loop and will not.
+  bool on_reactor_thread(const std::function<void()>& change);
+  void run_changes() noexcept;  // reactor thread, after a wake-up
 
   const std::string thread_name_;
   const std::string what_;
@@ -107,6 +182,19 @@ class FdReactor {
   // while nobody waits, where a 64-bit atomic's goes through a word shared by every waiter in
   // the process and takes a second locked add each round.
   std::atomic<std::uint32_t> rounds_{0};
+  std::atomic<ReactorIo> io_;
+  Wake wake_{this};
+  Timer timer_{this};
+  std::unique_ptr<Ring> ring_;  // with ReactorIo::io_uring; made and used by the thread
+  // The thread's pthread_self() once it runs (send_with_next_wait's test of the caller).
+  std::atomic<unsigned long> thread_id_{0};
+  // Ring: the changes add() and remove() hand the thread, and how many it has made.
+  std::mutex changes_mutex_;
+  std::condition_variable changes_made_;
+  std::vector<std::function<void()>> changes_;  // under changes_mutex_
+  std::uint64_t changes_posted_ = 0;            // under changes_mutex_
+  std::uint64_t changes_done_ = 0;              // under changes_mutex_
+  bool thread_gone_ = false;                    // under changes_mutex_
   std::thread thread_;
   std::optional<ThreadScheduling> scheduling_;  // under start_mutex_
   SchedulingOutcome applied_;

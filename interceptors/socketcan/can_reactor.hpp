@@ -1,5 +1,5 @@
 // The SocketCAN model's one receive thread for every CAN socket of the daemon (an FdReactor,
-// interceptors/common/fd_reactor.hpp, named pp-can-epoll), with the interface supervision as
+// interceptors/common/fd_reactor.hpp, named pp-can-epoll whichever way it waits), with the interface supervision as
 // its tick, and the loop-prevention state of each interface. The model hands it out; the
 // interceptors hold it; it goes with the last of them.
 #pragma once
@@ -49,7 +49,9 @@ inline std::uint64_t frame_fingerprint(std::uint32_t can_id, std::uint8_t len, c
 
 class CanReactor final : public FdReactor {
  public:
-  static std::shared_ptr<CanReactor> create() { return std::shared_ptr<CanReactor>(new CanReactor()); }
+  // `io`: how the thread waits (FdReactor): the SocketCAN model asks for io_uring where the
+  // kernel gives it, so that a frame forwarded CAN -> CAN goes out with the thread's next wait.
+  static std::shared_ptr<CanReactor> create(ReactorIo io) { return std::shared_ptr<CanReactor>(new CanReactor(io)); }
 
   // The loop-prevention state of `interface`; lives as long as the reactor. Control thread.
   CanEchoes& echoes(const std::string& interface) {
@@ -59,7 +61,7 @@ class CanReactor final : public FdReactor {
   }
 
  private:
-  CanReactor() : FdReactor("pp-can-epoll", "the CAN receive thread") {}
+  explicit CanReactor(ReactorIo io) : FdReactor("pp-can-epoll", "the CAN receive thread", io) {}
   std::map<std::string, std::unique_ptr<CanEchoes>> echoes_;  // control thread
 };
 

@@ -11,9 +11,15 @@
 //    SocketCanAdaptor::receive finds each frame's port by binary search in a sorted array
 //    built at construction (no allocation, no lock of ours), checks the length against the
 //    DBC message (a wrong one is counted and dropped) and writes the data bytes to the port.
-//  - polyport -> bus: an `input` port's sink runs on the upstream writer's thread, builds a
-//    can_frame / canfd_frame on its stack and write()s it without blocking (EAGAIN/ENOBUFS
-//    are counted as send_failed). A periodic port's sink writes a TX_SETUP for its id on
+//  - polyport -> bus: an `input` port's sink runs on the upstream writer's thread and builds a
+//    can_frame / canfd_frame on its stack. On the reactor thread itself (CAN -> CAN, a frame
+//    forwarded from this reactor's receive), when the reactor waits with io_uring, the frame
+//    is handed to the reactor (FdReactor::send_with_next_wait: copied into one of its send
+//    slots) and goes out with the io_uring_enter that ends the reactor's round, right after
+//    the receive handler returns: one system call for the send and the next wait. Elsewhere
+//    it is write()n at once. Neither blocks: EAGAIN/ENOBUFS are counted as send_failed (for a
+//    handed frame when the kernel reports it, on_send_done; the connection has counted it
+//    delivered by then). A periodic port's sink writes a TX_SETUP for its id on
 //    the BCM socket instead: the first (and the first after a loss of the interface) with
 //    SETTIMER|STARTTIMER|TX_ANNOUNCE at ival2 = the cycle, later ones without flags, which
 //    replace the frame's data in place without touching the timer. The sink also keeps the
@@ -76,13 +82,16 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
 
   // One `input` port: the port's sink sends each sample as a frame, or hands it to the
   // broadcast manager when the message is periodic.
-  class FrameWriter final : public SampleSink {
+  class FrameWriter final : public SampleSink, public SendTracker {
    public:
     FrameWriter(const SocketCanAdaptor::Message& message, const std::atomic<int>& fd, const std::atomic<int>& bcm_fd,
-                Counters& counters, CanEchoes& echoes, bool reads_own_id)
+                Counters& counters, CanEchoes& echoes, bool reads_own_id, FdReactor& reactor)
         : message_(message), fd_(fd), bcm_fd_(bcm_fd), counters_(counters), echoes_(echoes),
-          readers_(echoes.readers_of(message.can_id)), reads_own_id_(reads_own_id) {}
+          readers_(echoes.readers_of(message.can_id)), reads_own_id_(reads_own_id), reactor_(reactor) {}
     Status on_sample(const std::byte* data, const SampleMeta& meta) noexcept override;
+    // A frame handed to the reactor went out (or not); `cookie`: its loop-prevention
+    // fingerprint, 0 when none was recorded. Reactor thread.
+    void on_send_done(int result, std::uint64_t cookie) noexcept override;
     // Deletes the BCM task (control thread, after `active` went false).
     void unschedule() noexcept;
     // Starts the BCM task again with the last frame sent, if there was one (the tick, after
@@ -112,6 +121,7 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
     CanEchoes& echoes_;
     const std::atomic<std::uint32_t>& readers_;  // polyport's raw sockets reading the id
     bool reads_own_id_;  // this interceptor's own socket reads the id (it never gets its own raw frames)
+    FdReactor& reactor_;
   };
 
   // What the interface is, as the last tick saw it.

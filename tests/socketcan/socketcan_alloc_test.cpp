@@ -13,7 +13,9 @@
 //    the warm-up (the tick allocates for a log line; it is not the forwarding path);
 //  - CAN -> decoded, mapped onto another message, encoded -> CAN, beside a passthrough of
 //    the same frame (convert_alloc_app.xml, the wheelchair's joystick and motor frames).
-// Every wait is poll() or a probe read with a deadline.
+// The CAN -> CAN windows run once with each way the CAN thread waits (epoll: the sink write()s
+// each frame; io_uring: it hands the frame to the thread's next wait). Every wait is poll() or
+// a probe read with a deadline.
 #include <gtest/gtest.h>
 #include <linux/can.h>
 #include <linux/can/error.h>
@@ -94,6 +96,7 @@ class RawPeer {
 };
 
 using SocketCanAllocTest = test::SocketCanFixture;
+using SocketCanAllocBothWaits = test::SocketCanIoFixture;
 
 constexpr int kFrames = 500;
 constexpr auto kWindowDeadline = std::chrono::seconds(60);  // bounds a failure only
@@ -129,9 +132,10 @@ Forwarded forward_engine_data(std::uint8_t (&data)[8]) {
   return result;
 }
 
-TEST_F(SocketCanAllocTest, ForwardingFrameByFrameAllocatesNothing) {
+TEST_P(SocketCanAllocBothWaits, ForwardingFrameByFrameAllocatesNothing) {
   ASSERT_TRUE(build("cyclic_app.xml")) << problems();
   start();
+  expect_io("bus1");
   std::uint8_t data[8] = {0xA0, 0x0F, 0x78, 0xC8, 0x30, 0x7D, 0x01, 0x00};
   const Forwarded forwarded = forward_engine_data(data);
   ASSERT_EQ(forwarded.failed, "");
@@ -142,9 +146,10 @@ TEST_F(SocketCanAllocTest, ForwardingFrameByFrameAllocatesNothing) {
 // Loop prevention on the path (loop_app.xml: EngineData both ways between vcan0 and vcan1):
 // each frame from vcan0 is fingerprinted and recorded before polyport sends it on vcan1, and
 // its echo, back at polyport's reading socket of vcan1, is fingerprinted, found and dropped.
-TEST_F(SocketCanAllocTest, DroppingTheEchoOfItsOwnFrameAllocatesNothing) {
+TEST_P(SocketCanAllocBothWaits, DroppingTheEchoOfItsOwnFrameAllocatesNothing) {
   ASSERT_TRUE(build("loop_app.xml")) << problems();
   start();
+  expect_io("r1");
   std::uint8_t data[8] = {0xA0, 0x0F, 0x78, 0xC8, 0x30, 0x7D, 0x02, 0x00};
   const Forwarded forwarded = forward_engine_data(data);
   ASSERT_EQ(forwarded.failed, "");
@@ -244,9 +249,10 @@ TEST_F(SocketCanAllocTest, DecodingFramesAndErrorFramesIntoEventsAllocatesNothin
   EXPECT_DOUBLE_EQ(values[0], 1000.0);
 }
 
-TEST_F(SocketCanAllocTest, ConvertingAFrameIntoAnotherAllocatesNothing) {
+TEST_P(SocketCanAllocBothWaits, ConvertingAFrameIntoAnotherAllocatesNothing) {
   ASSERT_TRUE(build("convert_alloc_app.xml")) << problems();
   start();
+  expect_io("drive");
   RawPeer io("vcan0");
   RawPeer drive("vcan1");
   ASSERT_EQ(io.error(), "");
@@ -289,6 +295,8 @@ TEST_F(SocketCanAllocTest, ConvertingAFrameIntoAnotherAllocatesNothing) {
   EXPECT_NE(stats["connections"][1]["conversion"], "passthrough") << stats.dump(2);
   EXPECT_EQ(stats["connections"][1]["dropped"], 0) << stats.dump(2);
 }
+
+POLYPORT_BOTH_CAN_WAITS(SocketCanAllocBothWaits);
 
 }  // namespace
 }  // namespace polyport

@@ -8,9 +8,11 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <iostream>
 #include <string>
 
 #include "../support/daemon_harness.hpp"
+#include "../support/ring_probe.hpp"
 #include "can_peer.hpp"
 
 namespace polyport {
@@ -73,6 +75,29 @@ TEST_F(SocketCanDaemon, SurvivesDeletingAndReAddingItsInterface) {
     EXPECT_EQ(can["link"], "up") << can.dump(2);
   }
   EXPECT_TRUE(found) << stats.dump(2);
+}
+
+// --can-io picks how the CAN thread waits; by default io_uring, which the guest's kernel gives.
+// Both forward, and the final statistics say which one ran.
+TEST_F(SocketCanDaemon, TheCommandLineSaysHowTheCanThreadWaits) {
+  const std::string refused = test::ring_refused();
+  for (const std::string io : {"", "epoll", "io_uring"}) {
+    SCOPED_TRACE("--can-io " + (io.empty() ? std::string("(default)") : io));
+    if (io == "io_uring" && !refused.empty()) {
+      std::cout << "not run with --can-io io_uring: this kernel gives no io_uring: " << refused << "\n";
+      continue;
+    }
+    auto daemon_process = daemon(POLYPORT_TEST_DATA "/socketcan/cyclic_app.xml",
+                                 io.empty() ? std::vector<std::string>{} : std::vector<std::string>{"--can-io", io});
+    EXPECT_NE(forwarded("100#A00F78C8307D0100").find(" vcan1 100#A00F78C8307D0100"), std::string::npos)
+        << daemon_process->errors();
+    const test::Json stats = stop(*daemon_process);
+    ASSERT_FALSE(stats["components"].empty()) << stats.dump(2);
+    for (const auto& component : stats["components"]) {
+      EXPECT_EQ(component["socketcan"]["io"], io == "epoll" || !refused.empty() ? "epoll" : "io_uring")
+          << component.dump(2);
+    }
+  }
 }
 
 // The CAN receive thread runs with the scheduling <socketcan><receive_thread> asks for:

@@ -135,9 +135,12 @@ TEST_F(SocketCanEngineTest, AFrameOfTheWrongLengthIsCountedAndDropped) {
 // CAN -> CAN: EngineData from vcan0 goes out on vcan1 byte for byte (a passthrough
 // connection), as candump sees it. candump binds its socket some time after it starts, so
 // the frame is sent every 20 ms until candump has printed one.
-TEST_F(SocketCanEngineTest, PassthroughSendsTheFrameOnAnotherInterface) {
+using SocketCanPassthrough = test::SocketCanIoFixture;
+
+TEST_P(SocketCanPassthrough, SendsTheFrameOnAnotherInterface) {
   ASSERT_TRUE(build("passthrough_app.xml")) << problems();
   start();
+  expect_io("bus1");
   nlohmann::json graph;
   engine.describe(graph);
   ASSERT_EQ(graph["connections"].size(), 1u) << graph.dump(2);
@@ -161,6 +164,8 @@ TEST_F(SocketCanEngineTest, PassthroughSendsTheFrameOnAnotherInterface) {
   EXPECT_EQ(port_counters("bus1", "engine")["send_failed"], 0);
   EXPECT_EQ(port_counters("bus1", "engine")["can_id"], "0x100");
 }
+
+POLYPORT_BOTH_CAN_WAITS(SocketCanPassthrough);
 
 TEST_F(SocketCanEngineTest, FdOnAClassicInterfaceFailsTheStart) {
   ASSERT_TRUE(build("fd_on_classic_app.xml")) << problems();

@@ -1,0 +1,324 @@
+// The receive thread the LCM and SocketCAN models share (interceptors/common/fd_reactor.hpp),
+// waiting with epoll and with io_uring: handlers run while their descriptor is readable (level
+// triggered), not after remove(), and with the ring a handler's send_with_next_wait() goes out
+// in order (with what it writes itself when the reactor's slots are taken) and tells its
+// tracker the result, failures included. Pipes and Unix sockets stand in for the models'. Every wait polls a condition until a deadline.
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <cstring>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "../support/eventually.hpp"
+#include "fd_reactor.hpp"
+
+namespace polyport {
+namespace {
+
+using test::eventually;
+constexpr auto kDeadline = std::chrono::seconds(5);  // bounds a failure, not a latency
+
+// Reads one byte per call: the reactor must call it again while bytes are left.
+class ByteReader final : public ReadableHandler {
+ public:
+  explicit ByteReader(int fd) : fd_(fd) {}
+  void on_readable() noexcept override {
+    char byte = 0;
+    if (::read(fd_, &byte, 1) == 1) bytes.fetch_add(1);
+    calls.fetch_add(1);
+    if (then) then(byte);
+  }
+  std::atomic<int> bytes{0};
+  std::atomic<int> calls{0};
+  std::function<void(char)> then;  // set before add(), run on the reactor thread
+
+ private:
+  int fd_;
+};
+
+struct Pipe {
+  int read_end = -1, write_end = -1;
+  Pipe() {
+    int fds[2];
+    EXPECT_EQ(::pipe2(fds, O_NONBLOCK | O_CLOEXEC), 0);
+    read_end = fds[0];
+    write_end = fds[1];
+  }
+  ~Pipe() {
+    ::close(read_end);
+    ::close(write_end);
+  }
+  void put(const std::string& bytes) const {
+    ASSERT_EQ(::write(write_end, bytes.data(), bytes.size()), static_cast<ssize_t>(bytes.size()));
+  }
+};
+
+class Tracker final : public SendTracker {
+ public:
+  void on_send_done(int result, std::uint64_t cookie) noexcept override {
+    const std::lock_guard lock(mutex);
+    results.emplace_back(result, cookie);
+  }
+  std::vector<std::pair<int, std::uint64_t>> done() {
+    const std::lock_guard lock(mutex);
+    return results;
+  }
+
+ private:
+  std::mutex mutex;
+  std::vector<std::pair<int, std::uint64_t>> results;
+};
+
+class FdReactorTest : public ::testing::TestWithParam<ReactorIo> {
+ protected:
+  void SetUp() override {
+    reactor = FdReactor::create("pp-test-react", "the test's receive thread", GetParam());
+    // The first add() starts the thread and says how it waits.
+    auto added = reactor->add(starter.read_end, starter_reader);
+    if (!added && GetParam() == ReactorIo::io_uring) {
+      GTEST_SKIP() << "this kernel gives no io_uring, so only the epoll backend is tested here: "
+                   << added.error().message;
+    }
+    ASSERT_TRUE(added) << added.error().message;
+    ASSERT_EQ(reactor->io(), GetParam());
+  }
+  void TearDown() override {
+    if (reactor) reactor->remove(starter.read_end);
+  }
+
+  Pipe starter;
+  ByteReader starter_reader{starter.read_end};
+  std::shared_ptr<FdReactor> reactor;
+};
+
+TEST_P(FdReactorTest, CallsTheHandlerWhileTheDescriptorIsReadable) {
+  Pipe pipe;
+  ByteReader reader(pipe.read_end);
+  ASSERT_TRUE(reactor->add(pipe.read_end, reader));
+  pipe.put("abc");
+  ASSERT_TRUE(eventually([&] { return reader.bytes == 3; }, kDeadline)) << reader.bytes << " of 3 bytes read";
+  pipe.put("d");
+  ASSERT_TRUE(eventually([&] { return reader.bytes == 4; }, kDeadline)) << reader.bytes << " of 4 bytes read";
+  reactor->remove(pipe.read_end);
+  // One call per byte: a call finding nothing would mean the descriptor was reported unreadable.
+  EXPECT_EQ(reader.calls, 4);
+}
+
+TEST_P(FdReactorTest, AfterRemoveTheHandlerIsNotCalledAgain) {
+  Pipe removed_pipe, later_pipe;
+  ByteReader removed(removed_pipe.read_end), later(later_pipe.read_end);
+  ASSERT_TRUE(reactor->add(removed_pipe.read_end, removed));
+  removed_pipe.put("x");
+  ASSERT_TRUE(eventually([&] { return removed.bytes == 1; }, kDeadline));
+  reactor->remove(removed_pipe.read_end);
+  removed_pipe.put("y");
+  // A descriptor added after the removal and its handler's turn: the thread has run rounds with
+  // "y" waiting on the removed one.
+  ASSERT_TRUE(reactor->add(later_pipe.read_end, later));
+  later_pipe.put("z");
+  ASSERT_TRUE(eventually([&] { return later.bytes == 1; }, kDeadline));
+  later_pipe.put("z");
+  ASSERT_TRUE(eventually([&] { return later.bytes == 2; }, kDeadline));
+  EXPECT_EQ(removed.calls, 1);
+  reactor->remove(later_pipe.read_end);
+}
+
+TEST_P(FdReactorTest, AHandlerMayTakeItsOwnDescriptorOut) {
+  Pipe pipe;
+  ByteReader reader(pipe.read_end);
+  reader.then = [&](char) { reactor->remove_in_tick(pipe.read_end); };
+  ASSERT_TRUE(reactor->add(pipe.read_end, reader));
+  pipe.put("ab");
+  ASSERT_TRUE(eventually([&] { return reader.calls == 1; }, kDeadline));
+  // "b" is still there; the handler is out, and a later descriptor's turn comes without it.
+  Pipe other;
+  ByteReader other_reader(other.read_end);
+  ASSERT_TRUE(reactor->add(other.read_end, other_reader));
+  other.put("c");
+  ASSERT_TRUE(eventually([&] { return other_reader.bytes == 1; }, kDeadline));
+  EXPECT_EQ(reader.calls, 1);
+  reactor->remove(other.read_end);
+}
+
+TEST_P(FdReactorTest, AClosedDescriptorIsRefused) {
+  Pipe pipe;
+  ByteReader reader(pipe.read_end);
+  const int closed = ::dup(pipe.read_end);
+  ::close(closed);
+  if (GetParam() == ReactorIo::io_uring) {
+    const Result<void> added = reactor->add(closed, reader);
+    ASSERT_FALSE(added);
+    EXPECT_NE(added.error().message.find("Bad file descriptor"), std::string::npos) << added.error().message;
+  } else {
+    const Result<void> added = reactor->add(closed, reader);
+    ASSERT_FALSE(added);
+    EXPECT_NE(added.error().message.find("epoll_ctl"), std::string::npos) << added.error().message;
+  }
+}
+
+// A Unix datagram socket pair: what a handler sends on `ours` arrives on `theirs` whole.
+struct Datagrams {
+  int ours = -1, theirs = -1;
+  Datagrams() {
+    int fds[2];
+    EXPECT_EQ(::socketpair(AF_UNIX, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0, fds), 0);
+    ours = fds[0];
+    theirs = fds[1];
+  }
+  ~Datagrams() {
+    ::close(ours);
+    ::close(theirs);
+  }
+  std::vector<std::string> received() const {
+    std::vector<std::string> out;
+    char buffer[FdReactor::kSendBytes];
+    for (ssize_t n; (n = ::recv(theirs, buffer, sizeof buffer, 0)) > 0;) out.emplace_back(buffer, static_cast<size_t>(n));
+    return out;
+  }
+};
+
+// A Unix stream socket pair: the bytes of every send on `ours`, in the order they went out.
+struct Stream {
+  int ours = -1, theirs = -1;
+  Stream() {
+    int fds[2];
+    EXPECT_EQ(::socketpair(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0, fds), 0);
+    ours = fds[0];
+    theirs = fds[1];
+  }
+  ~Stream() {
+    ::close(ours);
+    ::close(theirs);
+  }
+  void take(std::string& into) const {
+    char buffer[4096];
+    for (ssize_t n; (n = ::recv(theirs, buffer, sizeof buffer, 0)) > 0;) into.append(buffer, static_cast<size_t>(n));
+  }
+};
+
+bool no_send_in_flight(const SendTracker& tracker) {
+  return eventually([&] { return tracker.in_flight.load() == 0; }, kDeadline);
+}
+
+// 70 sends per handler call, more than the reactor's 64 slots: those it cannot take the
+// handler writes itself, after what the reactor queued, and every byte arrives in order.
+TEST_P(FdReactorTest, AHandlersSendsGoOutWithTheNextWaitInOrder) {
+  constexpr int kPerCall = 70;  // the three calls' 210 sends fit the socket's send buffer: none fails
+  Pipe pipe;
+  Stream stream;
+  Tracker tracker;
+  ByteReader reader(pipe.read_end);
+  std::atomic<int> handed{0};
+  std::string expected;
+  for (char byte : std::string("abc")) {
+    for (int k = 0; k < kPerCall; ++k) expected += byte + std::to_string(k / 10) + std::to_string(k % 10) + ",";
+  }
+  reader.then = [&](char byte) {
+    for (int k = 0; k < kPerCall; ++k) {
+      const std::string message = byte + std::to_string(k / 10) + std::to_string(k % 10) + ",";
+      if (reactor->send_with_next_wait(stream.ours, message.data(), static_cast<std::uint32_t>(message.size()),
+                                       tracker, static_cast<std::uint64_t>(k))) {
+        handed.fetch_add(1);
+      } else {
+        (void)::send(stream.ours, message.data(), message.size(), MSG_DONTWAIT);
+      }
+    }
+  };
+  ASSERT_TRUE(reactor->add(pipe.read_end, reader));
+  pipe.put("abc");
+  std::string got;
+  ASSERT_TRUE(eventually(
+      [&] {
+        stream.take(got);
+        return got.size() >= expected.size();
+      },
+      kDeadline))
+      << got.size() << " of " << expected.size() << " bytes";
+  EXPECT_EQ(got, expected);
+  reactor->remove(pipe.read_end);
+  ASSERT_TRUE(no_send_in_flight(tracker)) << tracker.in_flight.load() << " sends never done";
+  const auto done = tracker.done();
+  if (GetParam() == ReactorIo::epoll) {
+    EXPECT_EQ(handed, 0) << "an epoll reactor sends nothing for its handlers";
+    EXPECT_TRUE(done.empty());
+    return;
+  }
+  EXPECT_GE(handed, 3 * 64) << "the ring took fewer sends than its slots";
+  EXPECT_LT(handed, 3 * kPerCall) << "the ring took more sends than its slots";
+  ASSERT_EQ(static_cast<int>(done.size()), handed.load());
+  for (const auto& [result, cookie] : done) {
+    EXPECT_EQ(result, 4) << "send " << cookie;  // the bytes sent
+  }
+}
+
+// Only a ring hands sends to the kernel.
+using FdReactorRingTest = FdReactorTest;
+
+TEST_P(FdReactorRingTest, ASendTheKernelRefusesIsReportedToItsTracker) {
+  Pipe pipe;
+  Datagrams sockets;  // nobody reads `theirs`: its queue fills, then sends fail with EAGAIN
+  Tracker tracker;
+  ByteReader reader(pipe.read_end);
+  std::atomic<int> handed{0};
+  reader.then = [&](char) {
+    const char message[] = "a frame";
+    if (reactor->send_with_next_wait(sockets.ours, message, sizeof message, tracker, 7)) handed.fetch_add(1);
+  };
+  ASSERT_TRUE(reactor->add(pipe.read_end, reader));
+  // Far more datagrams than a Unix socket queues (net.unix.max_dgram_qlen, 10 by default;
+  // the receive buffer's bytes bound it too).
+  constexpr int kSends = 2000;
+  for (int sent = 0; sent < kSends; sent += 100) pipe.put(std::string(100, 'x'));
+  ASSERT_TRUE(eventually([&] { return reader.bytes == kSends; }, kDeadline)) << reader.bytes;
+  reactor->remove(pipe.read_end);
+  ASSERT_TRUE(no_send_in_flight(tracker)) << tracker.in_flight.load() << " sends never done";
+  const auto done = tracker.done();
+  ASSERT_EQ(static_cast<int>(done.size()), handed.load());
+  int failed = 0;
+  for (const auto& [result, cookie] : done) {
+    EXPECT_EQ(cookie, 7u);
+    if (result < 0) {
+      EXPECT_EQ(result, -EAGAIN);
+      ++failed;
+    } else {
+      EXPECT_EQ(result, 8);
+    }
+  }
+  EXPECT_GT(failed, 0) << "no send failed: the peer's queue never filled";
+  EXPECT_EQ(static_cast<std::size_t>(handed.load() - failed), sockets.received().size());
+}
+
+TEST_P(FdReactorTest, AnotherThreadCannotHandOverASend) {
+  Datagrams sockets;
+  Tracker tracker;
+  const char message[] = "x";
+  EXPECT_FALSE(reactor->send_with_next_wait(sockets.ours, message, sizeof message, tracker, 0));
+  EXPECT_EQ(tracker.in_flight, 0u);
+}
+
+std::string name_of(const ::testing::TestParamInfo<ReactorIo>& param) { return to_string(param.param); }
+INSTANTIATE_TEST_SUITE_P(Waits, FdReactorTest, ::testing::Values(ReactorIo::epoll, ReactorIo::io_uring), name_of);
+INSTANTIATE_TEST_SUITE_P(Waits, FdReactorRingTest, ::testing::Values(ReactorIo::io_uring), name_of);
+
+TEST(FdReactorAutomatic, WaitsOneWayOrTheOther) {
+  Pipe pipe;
+  ByteReader reader(pipe.read_end);
+  auto reactor = FdReactor::create("pp-test-react", "the test's receive thread", ReactorIo::automatic);
+  EXPECT_EQ(reactor->io(), ReactorIo::automatic);  // not started yet
+  ASSERT_TRUE(reactor->add(pipe.read_end, reader));
+  EXPECT_NE(reactor->io(), ReactorIo::automatic);
+  pipe.put("a");
+  EXPECT_TRUE(eventually([&] { return reader.bytes == 1; }, kDeadline));
+  reactor->remove(pipe.read_end);
+}
+
+}  // namespace
+}  // namespace polyport
