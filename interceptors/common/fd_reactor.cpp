@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <future>
 #include <string>
@@ -43,17 +44,30 @@ const char* to_string(ReactorIo io) noexcept {
 // removal (cancelled, or already on the completion queue) finds another generation and is
 // dropped. A send's tag names its slot of `sends`, whose bytes the kernel reads when the next
 // io_uring_enter submits it (MSG_DONTWAIT: it completes in that call, never later).
+// A receiver (add_receiver) is a multishot recvmsg instead of a poll: each message arrives in
+// one of `buffers` (a provided-buffer ring, group 0, shared by every receiver), laid out as
+// io_uring_recvmsg_out, the control messages, the payload; the buffer goes back to the ring
+// once its handler has returned. A receiver whose receives fail three times in a row without a
+// message, or on a kernel without multishot recvmsg, is polled instead (its on_readable reads).
 struct FdReactor::Ring {
   static constexpr unsigned kEntries = 256;
   static constexpr unsigned kSends = 64;
   static constexpr unsigned kCompletions = 32;  // taken from the queue per look
-  enum Kind : std::uint64_t { kPoll = 1, kSend = 2, kCancel = 3 };
+  static constexpr unsigned kBuffers = 128;      // a power of two
+  static constexpr unsigned kBufferBytes = 256;  // recvmsg_out + control + a CAN FD frame
+  static_assert(sizeof(io_uring_recvmsg_out) + MessageHandler::kControlBytes + MessageHandler::kMessageBytes <=
+                kBufferBytes);
+  enum Kind : std::uint64_t { kReceive = 0, kPoll = 1, kSend = 2, kCancel = 3 };
 
   struct Watched {
     int fd = -1;
     ReadableHandler* handler = nullptr;
+    MessageHandler* receiver = nullptr;  // received by the ring; null: polled
+    std::unique_ptr<msghdr> header;     // the receiver's recvmsg template (the kernel reads it at submit)
     std::uint32_t generation = 0;
+    int failures = 0;  // receives failed in a row
     bool active = false;
+    bool polled() const noexcept { return receiver == nullptr || failures >= 3; }
   };
   struct Send {
     alignas(8) unsigned char bytes[kSendBytes];
@@ -63,6 +77,11 @@ struct FdReactor::Ring {
 
   io_uring ring{};
   bool live = false;  // `ring` was set up (and is to be torn down)
+  // Receivers' buffers (registered at init: 5.19; multishot recvmsg itself: 6.0, found out at
+  // the first receive). Null: every descriptor is polled.
+  io_uring_buf_ring* buffer_ring = nullptr;
+  unsigned char* buffers = nullptr;
+  bool receives = false;
   std::vector<Watched> watched;
   Send sends[kSends];
   unsigned free_sends[kSends];
@@ -76,7 +95,9 @@ struct FdReactor::Ring {
     for (unsigned i = 0; i < kSends; ++i) free_sends[i] = kSends - 1 - i;
   }
   ~Ring() {
-    if (live) io_uring_queue_exit(&ring);
+    if (live) io_uring_queue_exit(&ring);  // unregisters the buffer ring too
+    std::free(buffer_ring);
+    std::free(buffers);
   }
 
   // io_uring_queue_init with the cheapest task-work settings this kernel takes; -errno.
@@ -96,9 +117,47 @@ struct FdReactor::Ring {
     const bool has_all = probe != nullptr && io_uring_opcode_supported(probe, IORING_OP_POLL_ADD) &&
                          io_uring_opcode_supported(probe, IORING_OP_POLL_REMOVE) &&
                          io_uring_opcode_supported(probe, IORING_OP_SEND);
+    const bool has_receive = probe != nullptr && io_uring_opcode_supported(probe, IORING_OP_RECVMSG) &&
+                             io_uring_opcode_supported(probe, IORING_OP_ASYNC_CANCEL);
     if (probe != nullptr) io_uring_free_probe(probe);
     if (!has_all) return -EOPNOTSUPP;  // the destructor tears it down
+    if (has_receive) set_up_buffers();
     return 0;
+  }
+
+  void set_up_buffers() {
+    void* ring_memory = nullptr;
+    void* buffer_memory = nullptr;
+    if (::posix_memalign(&ring_memory, 4096, kBuffers * sizeof(io_uring_buf)) != 0) return;
+    if (::posix_memalign(&buffer_memory, 64, std::size_t{kBuffers} * kBufferBytes) != 0) {
+      std::free(ring_memory);
+      return;
+    }
+    std::memset(ring_memory, 0, kBuffers * sizeof(io_uring_buf));
+    io_uring_buf_reg reg{};
+    reg.ring_addr = reinterpret_cast<std::uintptr_t>(ring_memory);
+    reg.ring_entries = kBuffers;
+    reg.bgid = 0;
+    if (io_uring_register_buf_ring(&ring, &reg, 0) != 0) {  // before 5.19: receivers are polled
+      std::free(ring_memory);
+      std::free(buffer_memory);
+      return;
+    }
+    buffer_ring = static_cast<io_uring_buf_ring*>(ring_memory);
+    buffers = static_cast<unsigned char*>(buffer_memory);
+    io_uring_buf_ring_init(buffer_ring);
+    for (unsigned id = 0; id < kBuffers; ++id) {
+      io_uring_buf_ring_add(buffer_ring, buffers + std::size_t{id} * kBufferBytes, kBufferBytes,
+                            static_cast<unsigned short>(id), io_uring_buf_ring_mask(kBuffers), static_cast<int>(id));
+    }
+    io_uring_buf_ring_advance(buffer_ring, kBuffers);
+    receives = true;
+  }
+
+  void give_back(unsigned id) noexcept {
+    io_uring_buf_ring_add(buffer_ring, buffers + std::size_t{id} * kBufferBytes, kBufferBytes,
+                          static_cast<unsigned short>(id), io_uring_buf_ring_mask(kBuffers), 0);
+    io_uring_buf_ring_advance(buffer_ring, 1);
   }
 
   static std::uint64_t tag(Kind kind, std::uint32_t generation, std::uint32_t index) noexcept {
@@ -117,15 +176,24 @@ struct FdReactor::Ring {
     return sqe;
   }
 
+  bool received(const Watched& w) const noexcept { return receives && !w.polled(); }
+
   void arm(std::uint32_t index) noexcept {
     const Watched& w = watched[index];
     io_uring_sqe* sqe = entry();
     if (sqe == nullptr) return;  // see entry(): not seen to happen; the descriptor would go unwatched
+    if (received(w)) {
+      io_uring_prep_recvmsg_multishot(sqe, w.fd, w.header.get(), 0);
+      sqe->flags |= IOSQE_BUFFER_SELECT;
+      sqe->buf_group = 0;
+      io_uring_sqe_set_data64(sqe, tag(kReceive, w.generation, index));
+      return;
+    }
     io_uring_prep_poll_add(sqe, w.fd, POLLIN);
     io_uring_sqe_set_data64(sqe, tag(kPoll, w.generation, index));
   }
 
-  Result<void> add(int fd, ReadableHandler& handler) {
+  Result<void> add(int fd, ReadableHandler& handler, MessageHandler* receiver = nullptr) {
     if (::fcntl(fd, F_GETFD) < 0) return make_error(std::string("io_uring poll of descriptor ") +
                                                    std::to_string(fd) + ": " + std::strerror(errno));
     std::uint32_t index = 0;
@@ -134,6 +202,13 @@ struct FdReactor::Ring {
     Watched& w = watched[index];
     w.fd = fd;
     w.handler = &handler;
+    w.receiver = receiver;
+    w.failures = 0;
+    if (receiver != nullptr) {
+      if (!w.header) w.header = std::make_unique<msghdr>();
+      *w.header = msghdr{};
+      w.header->msg_controllen = std::min(receiver->control_bytes(), MessageHandler::kControlBytes);
+    }
     w.generation = (w.generation + 1) & 0x3fffffffU;
     w.active = true;
     arm(index);
@@ -144,13 +219,18 @@ struct FdReactor::Ring {
     for (std::uint32_t index = 0; index < watched.size(); ++index) {
       Watched& w = watched[index];
       if (!w.active || w.fd != fd) continue;
-      const std::uint64_t armed = tag(kPoll, w.generation, index);
+      const bool was_received = received(w);
+      const std::uint64_t armed = tag(was_received ? kReceive : kPoll, w.generation, index);
       w.active = false;
       w.generation = (w.generation + 1) & 0x3fffffffU;
-      // The armed poll holds the descriptor's file until it is cancelled (a dup2 over the number
-      // would otherwise leave it watching the old socket).
+      // The armed poll or receive holds the descriptor's file until it is cancelled (a dup2 over
+      // the number would otherwise leave it watching the old socket).
       if (io_uring_sqe* sqe = entry()) {
-        io_uring_prep_poll_remove(sqe, armed);
+        if (was_received) {
+          io_uring_prep_cancel64(sqe, armed, 0);
+        } else {
+          io_uring_prep_poll_remove(sqe, armed);
+        }
         io_uring_sqe_set_data64(sqe, tag(kCancel, 0, 0));
       }
     }
@@ -202,12 +282,17 @@ struct FdReactor::Ring {
     }
   }
 
-  // One completion: a handler's turn (and its poll armed again), a send's result, or nothing.
-  void complete(std::uint64_t user_data, int result) noexcept {
+  // One completion: a handler's turn (and its poll armed again), a message for a receiver, a
+  // send's result, or nothing.
+  void complete(std::uint64_t user_data, int result, std::uint32_t flags) noexcept {
     const auto kind = static_cast<Kind>(user_data >> 62);
     const auto index = static_cast<std::uint32_t>(user_data);
     if (kind == kSend) {
       finish_send(index, result);
+      return;
+    }
+    if (kind == kReceive) {
+      receive(index, static_cast<std::uint32_t>(user_data >> 32) & 0x3fffffffU, result, flags);
       return;
     }
     if (kind != kPoll || index >= watched.size()) return;
@@ -226,13 +311,57 @@ struct FdReactor::Ring {
     // Armed again unless the handler removed it (the vector may have grown: index, not reference).
     if (watched[index].active && watched[index].generation == generation) arm(index);
   }
+
+  void receive(std::uint32_t index, std::uint32_t generation, int result, std::uint32_t flags) noexcept {
+    const bool has_buffer = (flags & IORING_CQE_F_BUFFER) != 0;
+    const unsigned id = flags >> IORING_CQE_BUFFER_SHIFT;
+    auto current = [&] {
+      return index < watched.size() && watched[index].active && watched[index].generation == generation;
+    };
+    if (current()) {
+      Watched& w = watched[index];
+      if (result >= 0 && has_buffer) {
+        w.failures = 0;
+        msghdr& header = *w.header;
+        unsigned char* buffer = buffers + std::size_t{id} * kBufferBytes;
+        io_uring_recvmsg_out* out = io_uring_recvmsg_validate(buffer, result, &header);
+        if (out == nullptr) {
+          w.receiver->on_receive_error(EMSGSIZE);
+        } else {
+          msghdr view{};
+          view.msg_control = static_cast<unsigned char*>(io_uring_recvmsg_name(out)) + header.msg_namelen;
+          view.msg_controllen = out->controllen;
+          view.msg_flags = static_cast<int>(out->flags);
+          std::uint32_t size = io_uring_recvmsg_payload_length(out, result, &header);
+          if (size > MessageHandler::kMessageBytes) {  // the buffer holds more than a handler takes
+            size = MessageHandler::kMessageBytes;
+            view.msg_flags |= MSG_TRUNC;
+          }
+          w.receiver->on_message(static_cast<const std::byte*>(io_uring_recvmsg_payload(out, &header)), size, view);
+        }
+      } else if (result == -EINVAL && w.failures == 0) {
+        // No multishot recvmsg in this kernel (before 6.0): every receiver is polled from now on.
+        receives = false;
+      } else if (result < 0 && result != -ENOBUFS) {
+        // ENOBUFS: every buffer was taken; the ones handed back since let it go on.
+        if (++watched[index].failures >= 3) {
+          spdlog::warn("io_uring receive on descriptor {} failed three times in a row ({}): polled from now on",
+                       watched[index].fd, std::strerror(-result));
+        }
+        watched[index].receiver->on_receive_error(-result);
+      }
+    }
+    if (has_buffer) give_back(id);
+    // A multishot receive ends with an error, or when the buffers ran out: armed again.
+    if ((flags & IORING_CQE_F_MORE) == 0 && current()) arm(index);
+  }
 };
 
 #else  // no liburing at build time: the thread always waits with epoll
 
 struct FdReactor::Ring {
   int init() { return -ENOSYS; }
-  Result<void> add(int, ReadableHandler&) { return make_error("built without io_uring"); }
+  Result<void> add(int, ReadableHandler&, MessageHandler* = nullptr) { return make_error("built without io_uring"); }
   void remove(int) noexcept {}
   bool send(int, const void*, std::uint32_t, SendTracker&, std::uint64_t) noexcept { return false; }
 };
@@ -430,6 +559,18 @@ Result<void> FdReactor::add_in_tick(int fd, ReadableHandler& handler) {
   return {};
 }
 
+Result<void> FdReactor::add_receiver(int fd, MessageHandler& handler) {
+  if (auto started = start(); !started) return started;
+  return add_receiver_in_tick(fd, handler);
+}
+
+Result<void> FdReactor::add_receiver_in_tick(int fd, MessageHandler& handler) {
+  if (io() != ReactorIo::io_uring) return add_in_tick(fd, handler);
+  Result<void> added = make_error(what_ + " has stopped (io_uring_enter failed)");
+  (void)on_reactor_thread([&] { added = ring_->add(fd, handler, &handler); });
+  return added;
+}
+
 bool FdReactor::send_with_next_wait(int fd, const void* data, std::uint32_t size, SendTracker& tracker,
                                     std::uint64_t cookie) noexcept {
   // on_thread() first: only the thread itself reads ring_ here.
@@ -510,6 +651,7 @@ void FdReactor::run_ring() noexcept {
   struct Done {
     std::uint64_t user_data;
     int result;
+    std::uint32_t flags;
   };
   Done done[Ring::kCompletions];
   io_uring_cqe* cqes[Ring::kCompletions];
@@ -524,9 +666,9 @@ void FdReactor::run_ring() noexcept {
     }
     // Copied out first: a handler's submission may need the room on the completion queue.
     const unsigned n = io_uring_peek_batch_cqe(&r.ring, cqes, Ring::kCompletions);
-    for (unsigned i = 0; i < n; ++i) done[i] = Done{cqes[i]->user_data, cqes[i]->res};
+    for (unsigned i = 0; i < n; ++i) done[i] = Done{cqes[i]->user_data, cqes[i]->res, cqes[i]->flags};
     io_uring_cq_advance(&r.ring, n);
-    for (unsigned i = 0; i < n; ++i) r.complete(done[i].user_data, done[i].result);
+    for (unsigned i = 0; i < n; ++i) r.complete(done[i].user_data, done[i].result, done[i].flags);
     end_round();
   }
   // Sends still queued go out (or are given up), so no tracker waits for them forever.

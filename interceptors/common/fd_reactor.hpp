@@ -3,11 +3,13 @@
 // LCM instance's notify descriptor). The model hands it out; the interceptors hold it; it goes
 // with the last of them.
 //
-// How it waits (ReactorIo): epoll_wait, or an io_uring. With the ring every descriptor is a
-// one-shot poll armed again after its handler ran (level-triggered, as the epoll set is), and a
-// handler may hand the kernel a send with the thread's next wait (send_with_next_wait): the one
-// io_uring_enter that ends a round both sends what the round's handlers forwarded and waits for
-// the next descriptor, where write() + epoll_wait() are two system calls. The SocketCAN model
+// How it waits (ReactorIo): epoll_wait, or an io_uring. With the ring a descriptor is a one-shot
+// poll armed again after its handler ran (level-triggered, as the epoll set is), or, for a
+// datagram socket added with add_receiver(), a multishot recvmsg whose messages the reactor
+// hands its MessageHandler; and a handler may hand the kernel a send with the thread's next wait
+// (send_with_next_wait): the one io_uring_enter that ends a round both sends what the round's
+// handlers forwarded and waits for the next message, where epoll_wait() + recvmmsg() + write()
+// are three system calls. The SocketCAN model
 // asks for the ring (polyportd --can-io); the thread falls back to epoll where the kernel gives
 // none (io_uring_setup refused: an old kernel, a seccomp filter, kernel.io_uring_disabled).
 //
@@ -38,6 +40,8 @@
 #include <thread>
 #include <vector>
 
+#include <sys/socket.h>
+
 #include <nlohmann/json_fwd.hpp>
 
 #include "polyport/base/result.hpp"
@@ -50,6 +54,28 @@ class ReadableHandler {
  public:
   virtual ~ReadableHandler() = default;
   virtual void on_readable() noexcept = 0;
+};
+
+// A datagram socket whose messages the reactor may receive itself. With the ring, a multishot
+// recvmsg puts each message in one of the reactor's buffers and on_message() gets it where it
+// lies: the handler makes no system call, so a frame forwarded on the reactor thread costs it one
+// io_uring_enter in all (its send and the next wait). With epoll, or a kernel without multishot
+// recvmsg (before 6.0), the reactor calls on_readable() as for any handler, which reads itself.
+class MessageHandler : public ReadableHandler {
+ public:
+  // One message, reactor thread: its bytes (at most kMessageBytes: a CAN FD frame) and a msghdr
+  // whose msg_control / msg_controllen hold its control messages (CMSG_FIRSTHDR and
+  // CMSG_NXTHDR work on it) and whose msg_flags are the message's (MSG_DONTROUTE, MSG_TRUNC...).
+  virtual void on_message(const std::byte* data, std::uint32_t size, const msghdr& header) noexcept = 0;
+  // A receive failed with `error` (an errno, e.g. ENODEV: the interface went away); the
+  // reactor receives again.
+  virtual void on_receive_error(int error) noexcept = 0;
+  // The room its control messages take (the CMSG_SPACE of each option set on the socket), at
+  // most kControlBytes.
+  virtual std::uint32_t control_bytes() const noexcept = 0;
+
+  static constexpr std::uint32_t kMessageBytes = 72;
+  static constexpr std::uint32_t kControlBytes = 128;
 };
 
 // How a reactor's thread waits. `automatic`: the ring where the kernel gives one, else epoll.
@@ -112,6 +138,10 @@ class FdReactor {
   void remove_in_tick(int fd) noexcept;
   // Watches `fd` on a running thread (add() once the thread is started; a tick re-adding).
   Result<void> add_in_tick(int fd, ReadableHandler& handler);
+  // add() / add_in_tick() of a socket whose messages the reactor receives for `handler`
+  // (MessageHandler): with the ring, by multishot recvmsg; else as add().
+  Result<void> add_receiver(int fd, MessageHandler& handler);
+  Result<void> add_receiver_in_tick(int fd, MessageHandler& handler);
 
   // On the reactor thread (a handler, a tick): copies `size` (<= kSendBytes) bytes at `data`
   // and hands them to the kernel as a send on `fd` (MSG_DONTWAIT) with the thread's next wait,

@@ -304,7 +304,7 @@ Result<void> SocketCanInterceptor::attach(int ifindex) {
   (void)::dup2(fd, old_fd);
   ::close(fd);
   if (watch) {
-    if (auto added = reactor_->add_in_tick(old_fd, *this); !added) {
+    if (auto added = reactor_->add_receiver_in_tick(old_fd, *this); !added) {
       rewatch_ = true;  // the tick's next attempt adds it again
       return make_error(where() + ": " + added.error().message);
     }
@@ -371,7 +371,7 @@ Result<void> SocketCanInterceptor::start() {
   }
   receiving_.store(true, std::memory_order_release);
   // Always watched: error frames arrive even where no data frame is received.
-  if (auto added = reactor_->add(fd_.load(std::memory_order_acquire), *this); !added) {
+  if (auto added = reactor_->add_receiver(fd_.load(std::memory_order_acquire), *this); !added) {
     receiving_.store(false, std::memory_order_release);
     return make_error(adaptor_.name() + ": " + added.error().message);
   }
@@ -480,7 +480,7 @@ void SocketCanInterceptor::on_readable() noexcept {
     }
     const bool receiving = receiving_.load(std::memory_order_acquire);
     for (int i = 0; i < count; ++i) {
-      if (receiving) on_frame(batch.frames[i], batch.headers[i]);
+      if (receiving) on_frame(batch.frames[i], batch.headers[i].msg_len, batch.headers[i].msg_hdr);
       // The kernel shortened the control length to what it wrote; the next call needs the room.
       batch.headers[i].msg_hdr.msg_controllen = kControl;
     }
@@ -488,13 +488,27 @@ void SocketCanInterceptor::on_readable() noexcept {
   }
 }
 
-void SocketCanInterceptor::on_frame(const canfd_frame& frame, mmsghdr& received) noexcept {
-  const unsigned size = received.msg_len;
+void SocketCanInterceptor::on_message(const std::byte* data, std::uint32_t size, const msghdr& header) noexcept {
+  if (!receiving_.load(std::memory_order_acquire)) return;
+  canfd_frame frame;
+  std::memcpy(&frame, data, std::min<std::size_t>(size, sizeof frame));
+  on_frame(frame, (header.msg_flags & MSG_TRUNC) != 0 ? 0U : size, header);
+}
+
+void SocketCanInterceptor::on_receive_error(int error) noexcept {
+  // As recvmmsg's errors in on_readable: ENODEV: deleted (the socket is unbound now);
+  // ENETDOWN: set down. The tick reports both and re-attaches.
+  if (error == ENODEV) lost_.store(true, std::memory_order_release);
+  read_errors_.fetch_add(1, std::memory_order_relaxed);
+}
+
+void SocketCanInterceptor::on_frame(const canfd_frame& frame, unsigned size, const msghdr& header_in) noexcept {
   if (size != CAN_MTU && size != CANFD_MTU) {
     read_errors_.fetch_add(1, std::memory_order_relaxed);
     return;
   }
-  msghdr& header = received.msg_hdr;
+  // CMSG_NXTHDR takes a mutable msghdr; nothing is written through it.
+  msghdr& header = const_cast<msghdr&>(header_in);
   MonoTime t_source{};
   for (cmsghdr* c = CMSG_FIRSTHDR(&header); c != nullptr; c = CMSG_NXTHDR(&header, c)) {
     if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_TIMESTAMPNS) {

@@ -5,9 +5,13 @@
 // CAN_BCM socket instead, whose kernel timer sends the last one every cycle.
 //
 // Threads and buffers (forwarding path):
-//  - bus -> polyport: on_readable runs on the reactor thread; recvmmsg copies up to 16
-//    frames with their SO_TIMESTAMPNS stamps into the interceptor's receive batch (made
-//    and set up once at construction, used by the reactor thread alone) in one system call;
+//  - bus -> polyport: on the reactor thread. When it waits with io_uring, its ring receives
+//    every frame itself (multishot recvmsg into the reactor's buffers, with the SO_TIMESTAMPNS
+//    stamp and the drop count) and hands it to on_message, copied onto the stack: no system
+//    call of the interceptor's. Otherwise on_readable runs when the socket is readable;
+//    recvmmsg copies up to 16 frames with their stamps into the interceptor's receive batch
+//    (made and set up once at construction, used by the reactor thread alone) in one system
+//    call. Either way on_frame takes each frame:
 //    SocketCanAdaptor::receive finds each frame's port by binary search in a sorted array
 //    built at construction (no allocation, no lock of ours), checks the length against the
 //    DBC message (a wrong one is counted and dropped) and writes the data bytes to the port.
@@ -59,7 +63,7 @@
 
 namespace polyport::socketcan {
 
-class SocketCanInterceptor final : public Interceptor, private ReadableHandler, private Supervised {
+class SocketCanInterceptor final : public Interceptor, private MessageHandler, private Supervised {
  public:
   SocketCanInterceptor(SocketCanAdaptor& adaptor, std::shared_ptr<CanReactor> reactor);
   ~SocketCanInterceptor() override;
@@ -140,8 +144,13 @@ class SocketCanInterceptor final : public Interceptor, private ReadableHandler, 
   };
 
   void on_readable() noexcept override;
-  // One frame of a batch from on_readable, with its timestamp and drop count.
-  void on_frame(const canfd_frame& frame, mmsghdr& received) noexcept;
+  // A frame the reactor's ring received (multishot recvmsg into its buffer).
+  void on_message(const std::byte* data, std::uint32_t size, const msghdr& header) noexcept override;
+  void on_receive_error(int error) noexcept override;
+  std::uint32_t control_bytes() const noexcept override { return kControl; }
+  // One received frame (of on_readable's batch, or on_message's), `size` bytes as read, with
+  // its timestamp and drop count in `header`'s control messages.
+  void on_frame(const canfd_frame& frame, unsigned size, const msghdr& header) noexcept;
   void on_tick() noexcept override;
   void on_error_frame(const canfd_frame& frame, MonoTime t_source) noexcept;
   void emit(CanBusEventKind kind, CanBusState state, MonoTime t_source, std::uint32_t error_class = 0,
