@@ -168,44 +168,36 @@ TEST_P(FdReactorTest, AClosedDescriptorIsRefused) {
   }
 }
 
-// A Unix datagram socket pair: what a handler sends on `ours` arrives on `theirs` whole.
-struct Datagrams {
+// A Unix socket pair of `type`: what is sent on `ours` is read on `theirs`; SOCK_DGRAM keeps
+// each send whole, SOCK_STREAM keeps every byte in the order it went out.
+struct SocketPair {
   int ours = -1, theirs = -1;
-  Datagrams() {
+  explicit SocketPair(int type) {
     int fds[2];
-    EXPECT_EQ(::socketpair(AF_UNIX, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0, fds), 0);
+    EXPECT_EQ(::socketpair(AF_UNIX, type | SOCK_NONBLOCK | SOCK_CLOEXEC, 0, fds), 0);
     ours = fds[0];
     theirs = fds[1];
   }
-  ~Datagrams() {
+  ~SocketPair() {
     ::close(ours);
     ::close(theirs);
   }
+  // The datagrams waiting on `theirs` (of a stream: what it holds, in pieces).
   std::vector<std::string> received() const {
     std::vector<std::string> out;
-    char buffer[FdReactor::kSendBytes];
+    char buffer[4096];
     for (ssize_t n; (n = ::recv(theirs, buffer, sizeof buffer, 0)) > 0;) out.emplace_back(buffer, static_cast<size_t>(n));
     return out;
   }
-};
-
-// A Unix stream socket pair: the bytes of every send on `ours`, in the order they went out.
-struct Stream {
-  int ours = -1, theirs = -1;
-  Stream() {
-    int fds[2];
-    EXPECT_EQ(::socketpair(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0, fds), 0);
-    ours = fds[0];
-    theirs = fds[1];
-  }
-  ~Stream() {
-    ::close(ours);
-    ::close(theirs);
-  }
   void take(std::string& into) const {
-    char buffer[4096];
-    for (ssize_t n; (n = ::recv(theirs, buffer, sizeof buffer, 0)) > 0;) into.append(buffer, static_cast<size_t>(n));
+    for (const std::string& bytes : received()) into += bytes;
   }
+};
+struct Datagrams : SocketPair {
+  Datagrams() : SocketPair(SOCK_DGRAM) {}
+};
+struct Stream : SocketPair {
+  Stream() : SocketPair(SOCK_STREAM) {}
 };
 
 bool no_send_in_flight(const SendTracker& tracker) {
