@@ -65,9 +65,12 @@ struct FdReactor::Ring {
     MessageHandler* receiver = nullptr;  // received by the ring; null: polled
     std::unique_ptr<msghdr> header;     // the receiver's recvmsg template (the kernel reads it at submit)
     std::uint32_t generation = 0;
-    int failures = 0;  // receives failed in a row
+    int failures = 0;            // receives failed in a row
+    bool received_once = false;  // a receive of this registration delivered a message
     bool active = false;
-    bool polled() const noexcept { return receiver == nullptr || failures >= 3; }
+    Kind armed = kCancel;        // what arm() last submitted for it (kPoll or kReceive)
+    static constexpr int kPolledAfter = 3;
+    bool polled() const noexcept { return receiver == nullptr || failures >= kPolledAfter; }
   };
   struct Send {
     alignas(8) unsigned char bytes[kSendBytes];
@@ -82,6 +85,7 @@ struct FdReactor::Ring {
   io_uring_buf_ring* buffer_ring = nullptr;
   unsigned char* buffers = nullptr;
   bool receives = false;
+  std::atomic<bool>* receives_flag = nullptr;  // FdReactor::ring_receives_, for describe()
   std::vector<Watched> watched;
   Send sends[kSends];
   unsigned free_sends[kSends];
@@ -128,7 +132,12 @@ struct FdReactor::Ring {
   void set_up_buffers() {
     void* ring_memory = nullptr;
     void* buffer_memory = nullptr;
-    if (::posix_memalign(&ring_memory, 4096, kBuffers * sizeof(io_uring_buf)) != 0) return;
+    // The kernel maps the ring's entries: page-aligned.
+    const long page = ::sysconf(_SC_PAGESIZE);
+    if (::posix_memalign(&ring_memory, page > 0 ? static_cast<std::size_t>(page) : 4096,
+                         kBuffers * sizeof(io_uring_buf)) != 0) {
+      return;
+    }
     if (::posix_memalign(&buffer_memory, 64, std::size_t{kBuffers} * kBufferBytes) != 0) {
       std::free(ring_memory);
       return;
@@ -138,7 +147,9 @@ struct FdReactor::Ring {
     reg.ring_addr = reinterpret_cast<std::uintptr_t>(ring_memory);
     reg.ring_entries = kBuffers;
     reg.bgid = 0;
-    if (io_uring_register_buf_ring(&ring, &reg, 0) != 0) {  // before 5.19: receivers are polled
+    if (const int rc = io_uring_register_buf_ring(&ring, &reg, 0); rc != 0) {  // before 5.19
+      spdlog::info("io_uring_register_buf_ring: {}: sockets are polled and read by their handlers",
+                   std::strerror(-rc));
       std::free(ring_memory);
       std::free(buffer_memory);
       return;
@@ -152,6 +163,7 @@ struct FdReactor::Ring {
     }
     io_uring_buf_ring_advance(buffer_ring, kBuffers);
     receives = true;
+    receives_flag->store(true, std::memory_order_release);
   }
 
   void give_back(unsigned id) noexcept {
@@ -179,7 +191,7 @@ struct FdReactor::Ring {
   bool received(const Watched& w) const noexcept { return receives && !w.polled(); }
 
   void arm(std::uint32_t index) noexcept {
-    const Watched& w = watched[index];
+    Watched& w = watched[index];
     io_uring_sqe* sqe = entry();
     if (sqe == nullptr) return;  // see entry(): not seen to happen; the descriptor would go unwatched
     if (received(w)) {
@@ -187,10 +199,12 @@ struct FdReactor::Ring {
       sqe->flags |= IOSQE_BUFFER_SELECT;
       sqe->buf_group = 0;
       io_uring_sqe_set_data64(sqe, tag(kReceive, w.generation, index));
+      w.armed = kReceive;
       return;
     }
     io_uring_prep_poll_add(sqe, w.fd, POLLIN);
     io_uring_sqe_set_data64(sqe, tag(kPoll, w.generation, index));
+    w.armed = kPoll;
   }
 
   Result<void> add(int fd, ReadableHandler& handler, MessageHandler* receiver = nullptr) {
@@ -204,6 +218,7 @@ struct FdReactor::Ring {
     w.handler = &handler;
     w.receiver = receiver;
     w.failures = 0;
+    w.received_once = false;
     if (receiver != nullptr) {
       if (!w.header) w.header = std::make_unique<msghdr>();
       *w.header = msghdr{};
@@ -219,7 +234,7 @@ struct FdReactor::Ring {
     for (std::uint32_t index = 0; index < watched.size(); ++index) {
       Watched& w = watched[index];
       if (!w.active || w.fd != fd) continue;
-      const bool was_received = received(w);
+      const bool was_received = w.armed == kReceive;
       const std::uint64_t armed = tag(was_received ? kReceive : kPoll, w.generation, index);
       w.active = false;
       w.generation = (w.generation + 1) & 0x3fffffffU;
@@ -233,6 +248,9 @@ struct FdReactor::Ring {
         }
         io_uring_sqe_set_data64(sqe, tag(kCancel, 0, 0));
       }
+      // Submitted now, with any re-arm queued for it this round, while the number still names
+      // the old socket: the caller may dup2 another over it or close it next.
+      (void)io_uring_submit(&ring);
     }
   }
 
@@ -322,6 +340,7 @@ struct FdReactor::Ring {
       Watched& w = watched[index];
       if (result >= 0 && has_buffer) {
         w.failures = 0;
+        w.received_once = true;
         msghdr& header = *w.header;
         unsigned char* buffer = buffers + std::size_t{id} * kBufferBytes;
         io_uring_recvmsg_out* out = io_uring_recvmsg_validate(buffer, result, &header);
@@ -339,11 +358,13 @@ struct FdReactor::Ring {
           }
           w.receiver->on_message(static_cast<const std::byte*>(io_uring_recvmsg_payload(out, &header)), size, view);
         }
-      } else if (result == -EINVAL && w.failures == 0) {
-        // No multishot recvmsg in this kernel (before 6.0): every receiver is polled from now on.
-        receives = false;
+      } else if (result == -EINVAL && !w.received_once) {
+        // Its first receive refused: no multishot recvmsg in this kernel (before 6.0). Polled
+        // from now on (each receiver finds out for itself).
+        w.failures = Watched::kPolledAfter;
       } else if (result < 0 && result != -ENOBUFS) {
-        // ENOBUFS: every buffer was taken; the ones handed back since let it go on.
+        // ENOBUFS: every provided buffer was taken (a CAN socket never reports ENOBUFS itself);
+        // the ones handed back since let it go on.
         if (++watched[index].failures >= 3) {
           spdlog::warn("io_uring receive on descriptor {} failed three times in a row ({}): polled from now on",
                        watched[index].fd, std::strerror(-result));
@@ -360,6 +381,7 @@ struct FdReactor::Ring {
 #else  // no liburing at build time: the thread always waits with epoll
 
 struct FdReactor::Ring {
+  std::atomic<bool>* receives_flag = nullptr;
   int init() { return -ENOSYS; }
   Result<void> add(int, ReadableHandler&, MessageHandler* = nullptr) { return make_error("built without io_uring"); }
   void remove(int) noexcept {}
@@ -424,6 +446,7 @@ Result<void> FdReactor::start() {
     int rc = -EOPNOTSUPP;
     if (asked != ReactorIo::epoll) {
       auto ring = std::make_unique<Ring>();
+      ring->receives_flag = &ring_receives_;
       rc = ring->init();
       if (rc == 0) ring_ = std::move(ring);
     }
@@ -658,8 +681,10 @@ void FdReactor::run_ring() noexcept {
   while (!stopping_.load(std::memory_order_acquire)) {
     // Submits what the last round queued (its sends, the polls armed again) and waits for the
     // next event: the round's one system call. The sends complete in the call (MSG_DONTWAIT),
-    // so it waits for their completions and one more.
-    const int rc = io_uring_submit_and_wait(&r.ring, r.sends_out + 1);
+    // so it waits for their completions and one more. Completions left from the last look (more
+    // than kCompletions came) are taken first, without waiting.
+    const int rc = io_uring_cq_ready(&r.ring) != 0 ? io_uring_submit(&r.ring)
+                                                   : io_uring_submit_and_wait(&r.ring, r.sends_out + 1);
     if (rc < 0 && rc != -EINTR && rc != -EAGAIN && rc != -EBUSY) {
       spdlog::error("{}: io_uring_enter: {}; the thread stops", what_, std::strerror(-rc));
       break;

@@ -152,6 +152,9 @@ class FdReactor {
                            std::uint64_t cookie) noexcept;
   // How the thread waits: `io` as asked until the thread has started, then what it uses.
   ReactorIo io() const noexcept { return io_.load(std::memory_order_acquire); }
+  // With the ring: whether it can receive for MessageHandlers (its buffers registered, 5.19+);
+  // a receiver whose kernel lacks multishot recvmsg (before 6.0) is still polled.
+  bool ring_receives() const noexcept { return ring_receives_.load(std::memory_order_acquire); }
 
   // The scheduling a component asks for the thread (<receive_thread>); the strongest request
   // of all its components is applied when the thread starts, or at once when it runs already
@@ -213,6 +216,7 @@ class FdReactor {
   // the process and takes a second locked add each round.
   std::atomic<std::uint32_t> rounds_{0};
   std::atomic<ReactorIo> io_;
+  std::atomic<bool> ring_receives_{false};
   Wake wake_{this};
   Timer timer_{this};
   std::unique_ptr<Ring> ring_;  // with ReactorIo::io_uring; made and used by the thread

@@ -662,6 +662,7 @@ void SocketCanInterceptor::describe(nlohmann::json& out) const {
   const DataOutPort* events = adaptor_.bus_events();
   out["socketcan"] = {{"interface", settings.interface},
                       {"io", to_string(reactor_->io())},
+                      {"ring_receives", reactor_->ring_receives()},
                       {"fd", settings.fd},
                       {"link", kLinkNames[link_.load(std::memory_order_relaxed)]},
                       {"ifindex", ifindex_.load(std::memory_order_relaxed)},
