@@ -1,5 +1,5 @@
 // The SocketCAN model's one receive thread for every CAN socket of the daemon (an FdReactor,
-// interceptors/common/fd_reactor.hpp, named pp-can-epoll whichever way it waits), with the interface supervision as
+// interceptors/common/fd_reactor.hpp, named pp-can-recv whichever way it waits), with the interface supervision as
 // its tick, and the loop-prevention state of each interface. The model hands it out; the
 // interceptors hold it; it goes with the last of them.
 #pragma once
@@ -61,7 +61,7 @@ class CanReactor final : public FdReactor {
   }
 
  private:
-  explicit CanReactor(ReactorIo io) : FdReactor("pp-can-epoll", "the CAN receive thread", io) {}
+  explicit CanReactor(ReactorIo io) : FdReactor("pp-can-recv", "the CAN receive thread", io) {}
   std::map<std::string, std::unique_ptr<CanEchoes>> echoes_;  // control thread
 };
 

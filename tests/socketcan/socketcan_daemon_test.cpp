@@ -107,7 +107,7 @@ TEST_F(SocketCanDaemon, TheReceiveThreadRunsWithTheProfilesScheduling) {
       "socketcan", R"(<socketcan><interface>vcan0</interface><receive_thread policy="SCHED_FIFO" priority="30" cpu="0"/></socketcan>)",
       POLYPORT_TEST_DATA "/dbc/vehicle.dbc", "vehicle::EngineData");
   auto daemon_process = daemon(app);
-  const auto receive_thread = [&] { return test::thread_scheduling(daemon_process->pid(), "pp-can-epoll"); };
+  const auto receive_thread = [&] { return test::thread_scheduling(daemon_process->pid(), "pp-can-recv"); };
   ASSERT_TRUE(test::eventually([&] { return receive_thread().has_value(); })) << daemon_process->errors();
   const bool allowed = geteuid() == 0;
   if (allowed) {

@@ -1,0 +1,75 @@
+#!/usr/bin/python3
+"""counts.py (the LCM middles counted per round trip) on its inputs: strace -c tables with and
+without an errors column, callgrind profiles (a real one of /bin/true: every instruction
+lands in one library), the per-round-trip difference and the table. Label unit; no LCM runs."""
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import unittest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import counts  # noqa: E402
+
+STRACE = """% time     seconds  usecs/call     calls    errors syscall
+------ ----------- ----------- --------- --------- ----------------
+ 45.00    0.099445       49722         2           poll
+ 31.61    0.069867          55      1250           pselect6
+  3.48    0.007692           6      1230       376 futex
+  1.31    0.002895           4       688         1 read
+------ ----------- ----------- --------- --------- ----------------
+100.00    0.220981          42      5170       377 total
+"""
+
+
+class Counts(unittest.TestCase):
+    def test_strace_table_gives_calls_by_name_whether_or_not_they_failed(self):
+        with tempfile.NamedTemporaryFile("w", suffix=".strace", delete=False) as f:
+            f.write(STRACE)
+        try:
+            self.assertEqual(counts.syscalls(f.name), {"poll": 2, "pselect6": 1250, "futex": 1230, "read": 688})
+        finally:
+            os.unlink(f.name)
+
+    def test_callgrind_profile_is_split_by_library_without_losing_an_instruction(self):
+        with tempfile.TemporaryDirectory() as d:
+            out = os.path.join(d, "true.callgrind")
+            subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=" + out, "/bin/true"],
+                           capture_output=True, check=True)
+            by_library = counts.instructions(out)
+            annotated = subprocess.run(["callgrind_annotate", "--auto=no", out], capture_output=True, text=True).stdout
+        total = int(re.search(r"([\d,]+) \(100.0%\)\s+PROGRAM TOTALS", annotated).group(1).replace(",", ""))
+        self.assertEqual(sum(by_library.values()), total)
+        self.assertGreater(by_library.get("ld.so", 0), 0)  # the loader runs before main
+        self.assertGreater(by_library.get("libc", 0), 0)
+
+    def test_objects_and_inlined_code_are_named_after_their_owner(self):
+        self.assertEqual(counts.library_of("/work/build/bin/polyportd"), "polyport")
+        self.assertEqual(counts.library_of("/work/build/lib/libpolyport_core.so"), "polyport")
+        self.assertEqual(counts.library_of("/work/build/bin/pingpong_lcm"), "program")
+        self.assertEqual(counts.library_of("/usr/lib/x86_64-linux-gnu/liblcm.so.1.3.4"), "liblcm")
+        self.assertEqual(counts.library_of("/usr/lib/x86_64-linux-gnu/libc.so.6"), "libc")
+        self.assertEqual(counts.library_of("/usr/lib/x86_64-linux-gnu/libssl.so.3"), "other")
+        self.assertEqual(counts.owner_of("/usr/include/c++/12/bits/atomic_base.h:polyport::Connection::deliver"),
+                         "polyport")
+        self.assertEqual(counts.owner_of("bench_lcm_ping16_t.c:__bench_lcm_ping16_t_encode_array"), "program")
+        self.assertEqual(counts.owner_of("./elf/../sysdeps/generic/dl-new-hash.h:_dl_lookup_symbol_x"), "other")
+
+    def test_per_round_trip_is_the_difference_of_the_two_runs(self):
+        short = {"futex": 100, "sendmsg": 2000, "mmap": 180}
+        long_ = {"futex": 4100, "sendmsg": 6000, "mmap": 180, "write": 4000}
+        self.assertEqual(counts.per_round_trip(short, long_, 2000), {"futex": 2.0, "sendmsg": 2.0, "write": 2.0})
+
+    def test_table_has_a_row_per_case(self):
+        result = {"date": "d", "revision": "r", "rounds": [1000, 3000], "cases": [
+            {"middle": "polyportd", "size_bytes": 16, "syscalls_per_round_trip": {"recvmsg": 4.0, "futex": 0.2},
+             "syscalls_per_round_trip_total": 4.2,
+             "instructions_per_round_trip": {"polyport": 900, "liblcm": 1900, "glib": 2300, "libc": 3400},
+             "instructions_per_round_trip_total": 8500}]}
+        rows = [line for line in counts.table(result).splitlines() if line.startswith("| polyportd")]
+        self.assertEqual(rows, ["| polyportd | 16 B | 4.2 (recvmsg 4) | 8500 | 900 | 1900 | 2300 | 3400 |"])
+
+
+if __name__ == "__main__":
+    unittest.main()
