@@ -23,7 +23,7 @@ packages=(
   libsystemd-dev         # sd_notify: polyportd under a Type=notify unit with the watchdog
   debootstrap            # scripts/test_deb.sh: a clean Debian 12 root to install the .deb in
   python3-prometheus-client  # the reference parser of the metrics test (Prometheus text format); the benchmarks read /metrics with it
-  strace valgrind        # scripts/bench_lcm_counts.sh: system calls and instructions per round trip of the LCM middles
+  strace valgrind        # scripts/bench_counts.sh: system calls and instructions per round trip of a path's middles
   stress-ng              # scripts/bench_stress.sh: the CPU and memory stressor of the jitter benchmark
   # The vm tests (scripts/vcan-run installs these itself when missing; here CI has them up front):
   user-mode-linux        # a Linux kernel run as a process, with CAN modules: the host kernel has no CAN

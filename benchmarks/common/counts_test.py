@@ -1,7 +1,10 @@
 #!/usr/bin/python3
-"""counts.py (the LCM middles counted per round trip) on its inputs: strace -c tables with and
+"""counts.py (ping-pong middles counted per round trip) on its inputs: strace -c tables with and
 without an errors column, callgrind profiles (a real one of /bin/true: every instruction
-lands in one library), the per-round-trip difference and the table. Label unit; no LCM runs."""
+lands in one library), the matrix result's cases and their commands, the per-round-trip
+difference and the table. Label unit; no benchmark runs."""
+import argparse
+import json
 import os
 import re
 import subprocess
@@ -50,6 +53,9 @@ class Counts(unittest.TestCase):
         self.assertEqual(counts.library_of("/work/build/bin/pingpong_lcm"), "program")
         self.assertEqual(counts.library_of("/usr/lib/x86_64-linux-gnu/liblcm.so.1.3.4"), "liblcm")
         self.assertEqual(counts.library_of("/usr/lib/x86_64-linux-gnu/libc.so.6"), "libc")
+        self.assertEqual(counts.library_of("/work/build/bin/relay_fastdds_lcm"), "program")
+        self.assertEqual(counts.library_of("/usr/lib/x86_64-linux-gnu/libfastrtps.so.2.9"), "fastdds")
+        self.assertEqual(counts.library_of("/usr/lib/x86_64-linux-gnu/libddsc.so.0"), "cyclonedds")
         self.assertEqual(counts.library_of("/usr/lib/x86_64-linux-gnu/libssl.so.3"), "other")
         self.assertEqual(counts.owner_of("/usr/include/c++/12/bits/atomic_base.h:polyport::Connection::deliver"),
                          "polyport")
@@ -61,14 +67,41 @@ class Counts(unittest.TestCase):
         long_ = {"futex": 4100, "sendmsg": 6000, "mmap": 180, "write": 4000}
         self.assertEqual(counts.per_round_trip(short, long_, 2000), {"futex": 2.0, "sendmsg": 2.0, "write": 2.0})
 
+    def test_matrix_cases_are_the_one_core_cross_pairs_with_their_domains_and_relay(self):
+        cases = [
+            {"placement": "one-core", "from": "fastdds", "to": "lcm", "size_bytes": 16, "relay_program": "relay_fastdds_lcm",
+             "domains": {"via_ping": 155, "via_pong": 7806, "relay_ping": 157, "relay_pong": 7808}},
+            {"placement": "unpinned", "from": "lcm", "to": "fastdds", "size_bytes": 16, "relay_program": "relay_fastdds_lcm",
+             "domains": {"via_ping": 7801, "via_pong": 156, "relay_ping": 7803, "relay_pong": 158}},
+            {"placement": "one-core", "from": "lcm", "to": "lcm", "size_bytes": 16, "relay_program": "pingpong_lcm",
+             "domains": {}},
+            {"placement": "one-core", "from": "lcm", "to": "inprocess", "size_bytes": 16, "domains": {}}]
+        with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
+            json.dump({"cases": cases}, f)
+        try:
+            args = argparse.Namespace(result=f.name, bin="/b", profiles="/p")
+            found = list(counts.matrix_cases(args))
+        finally:
+            os.unlink(f.name)
+        self.assertEqual([c["label"] for c in found], ["fastdds -> lcm"])
+        case = found[0]
+        self.assertEqual(case["cwd"], "/p/one-core-fastdds-lcm-16")
+        ping, pong, middle = case["middles"]["polyportd"]
+        self.assertEqual(ping, ["/b/pingpong_fastdds", "ping", "155", "16"])
+        self.assertEqual(pong, ["/b/pingpong_lcm", "pong", "7806", "16"])
+        self.assertEqual(middle, ["/b/polyportd", "run", "/p/one-core-fastdds-lcm-16/app.xml"])
+        ping, pong, middle = case["middles"]["relay"]
+        self.assertEqual(ping, ["/b/pingpong_fastdds", "ping", "157", "16"])
+        self.assertEqual(middle, ["/b/relay_fastdds_lcm", "fastdds", "157", "7808", "16"])
+
     def test_table_has_a_row_per_case(self):
-        result = {"date": "d", "revision": "r", "rounds": [1000, 3000], "cases": [
-            {"middle": "polyportd", "size_bytes": 16, "syscalls_per_round_trip": {"recvmsg": 4.0, "futex": 0.2},
-             "syscalls_per_round_trip_total": 4.2,
+        result = {"benchmark": "lcm_counts", "date": "d", "revision": "r", "rounds": [1000, 3000], "cases": [
+            {"case": "lcm", "middle": "polyportd", "size_bytes": 16,
+             "syscalls_per_round_trip": {"recvmsg": 4.0, "futex": 0.2}, "syscalls_per_round_trip_total": 4.2,
              "instructions_per_round_trip": {"polyport": 900, "liblcm": 1900, "glib": 2300, "libc": 3400},
              "instructions_per_round_trip_total": 8500}]}
-        rows = [line for line in counts.table(result).splitlines() if line.startswith("| polyportd")]
-        self.assertEqual(rows, ["| polyportd | 16 B | 4.2 (recvmsg 4) | 8500 | 900 | 1900 | 2300 | 3400 |"])
+        rows = [line for line in counts.table(result).splitlines() if line.startswith("| lcm")]
+        self.assertEqual(rows, ["| lcm | polyportd | 16 B | 4.2 (recvmsg 4) | 8500 | 900 | 4200 | 3400 | 0 |"])
 
 
 if __name__ == "__main__":
