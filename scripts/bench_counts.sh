@@ -49,7 +49,7 @@ out="benchmarks/results/${benchmark}_counts-$(date -u +%Y%m%dT%H%M%SZ)"
 # disappears with the command.
 unshare -n bash -c 'ip link set lo up && ip link set lo multicast on && ip route add 239.255.76.67/32 dev lo &&
   exec python3 benchmarks/common/counts.py "$@"' counts "$benchmark" "$work/counts" --bin "$build/bin" \
-  --profiles "$work/profiles" --result "$work/result.json" --sizes "$sizes" --rounds "$rounds"
+  --profiles "$work/profiles" --result "$work/result.json" --rounds "$rounds"
 cp "$work/counts.json" "$out.json"
 cp "$work/counts.md" "$out.md"
 echo "results: $out.{json,md}"

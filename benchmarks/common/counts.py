@@ -13,9 +13,10 @@ path's code where the timed CPU bar cannot. (A middle's periodic work, DDS heart
 announcements, polyportd's status line, is counted by the time it runs, and valgrind makes
 that time longer: a DDS middle's figures carry a little of it.)
 
-  counts.py lcm OUT_PREFIX --bin BUILD/bin --profiles DIR [--sizes 16,1024] [--rounds 1000,3000]
-    --profiles  a directory bench_lcm_pingpong --keep wrote (one-core-16/app.xml, ...)
-  counts.py matrix OUT_PREFIX --bin BUILD/bin --profiles DIR --result MATRIX.json [--rounds ...]
+  counts.py lcm OUT_PREFIX --bin BUILD/bin --profiles DIR --result LCM.json [--rounds 1000,3000]
+    --profiles  a directory bench_lcm_pingpong --keep wrote, LCM.json its result: every one-core
+                case of it (one-core-<size>/app.xml), with its ports
+  counts.py matrix OUT_PREFIX --bin BUILD/bin --profiles DIR --result MATRIX.json [--rounds 1000,3000]
     --profiles  a directory bench_matrix --keep wrote, MATRIX.json its result: every cross case
                 of it (one-core-<from>-<to>-<size>/app.xml), with its domains and relay
   Both write OUT_PREFIX.json (every count) and OUT_PREFIX.md (the table).
@@ -39,16 +40,21 @@ DDS_ENV = {"CYCLONEDDS_URI": "file://" + os.path.join(SOURCE_DIR, "config/cyclon
 
 
 def lcm_cases(args):
-    """The LCM benchmark's one-core cases: via ports base+1, +2 and relay +3, +4 of each size's
-    base (run_pingpong.cpp)."""
+    """The LCM result's one-core cases, from their recorded ports (run_pingpong.cpp: polyportd
+    between via_ping and via_pong, the relay between relay_ping and relay_pong)."""
     prog = os.path.join(args.bin, "pingpong_lcm")
-    for size, base in ((int(s), 7700 if int(s) == 16 else 7705) for s in args.sizes.split(",")):
+    with open(args.result) as f:
+        result = json.load(f)
+    for c in result["cases"]:
+        if c.get("placement") != "one-core" or "ports" not in c:
+            continue
+        size, p = c["size_bytes"], c["ports"]
         folder = os.path.join(args.profiles, f"one-core-{size}")
         yield {"label": "lcm", "size_bytes": size, "cwd": folder, "middles": {
-            "polyportd": ([prog, "ping", str(base + 1), str(size)], [prog, "pong", str(base + 2), str(size)],
+            "polyportd": ([prog, "ping", str(p["via_ping"]), str(size)], [prog, "pong", str(p["via_pong"]), str(size)],
                           [os.path.join(args.bin, "polyportd"), "run", os.path.join(folder, "app.xml")]),
-            "relay": ([prog, "ping", str(base + 3), str(size)], [prog, "pong", str(base + 4), str(size)],
-                      [prog, "relay", str(base + 3), str(base + 4), str(size)])}}
+            "relay": ([prog, "ping", str(p["relay_ping"]), str(size)], [prog, "pong", str(p["relay_pong"]), str(size)],
+                      [prog, "relay", str(p["relay_ping"]), str(p["relay_pong"]), str(size)])}}
 
 
 def matrix_cases(args):
@@ -195,12 +201,9 @@ def main():
     p.add_argument("out")
     p.add_argument("--bin", required=True)
     p.add_argument("--profiles", required=True)
-    p.add_argument("--result", help="matrix: the result bench_matrix wrote beside --profiles")
-    p.add_argument("--sizes", default="16,1024", help="lcm: the sizes")
+    p.add_argument("--result", required=True, help="the result the runner wrote beside --profiles")
     p.add_argument("--rounds", default="1000,3000")
     args = p.parse_args()
-    if args.benchmark == "matrix" and not args.result:
-        p.error("matrix needs --result")
     args.bin, args.profiles = os.path.abspath(args.bin), os.path.abspath(args.profiles)  # the middles run in the profiles' folders
     short, long_ = (int(r) for r in args.rounds.split(","))
     result = {"benchmark": f"{args.benchmark}_counts", "revision": os.environ.get("POLYPORT_GIT_REVISION", "unknown"),

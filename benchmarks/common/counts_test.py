@@ -94,6 +94,22 @@ class Counts(unittest.TestCase):
         self.assertEqual(ping, ["/b/pingpong_fastdds", "ping", "157", "16"])
         self.assertEqual(middle, ["/b/relay_fastdds_lcm", "fastdds", "157", "7808", "16"])
 
+    def test_lcm_cases_are_the_one_core_cases_with_their_ports(self):
+        cases = [{"placement": "unpinned", "size_bytes": 16, "ports": {}},
+                 {"placement": "one-core", "size_bytes": 1024,
+                  "ports": {"direct": 7700, "via_ping": 7701, "via_pong": 7702, "relay_ping": 7703, "relay_pong": 7704}}]
+        with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
+            json.dump({"cases": cases}, f)
+        try:
+            found = list(counts.lcm_cases(argparse.Namespace(result=f.name, bin="/b", profiles="/p")))
+        finally:
+            os.unlink(f.name)
+        self.assertEqual([c["size_bytes"] for c in found], [1024])
+        ping, pong, middle = found[0]["middles"]["polyportd"]
+        self.assertEqual((ping, pong), (["/b/pingpong_lcm", "ping", "7701", "1024"], ["/b/pingpong_lcm", "pong", "7702", "1024"]))
+        self.assertEqual(middle, ["/b/polyportd", "run", "/p/one-core-1024/app.xml"])
+        self.assertEqual(found[0]["middles"]["relay"][2], ["/b/pingpong_lcm", "relay", "7703", "7704", "1024"])
+
     def test_table_has_a_row_per_case(self):
         result = {"benchmark": "lcm_counts", "date": "d", "revision": "r", "rounds": [1000, 3000], "cases": [
             {"case": "lcm", "middle": "polyportd", "size_bytes": 16,
