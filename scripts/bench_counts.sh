@@ -7,6 +7,8 @@
 #   scripts/bench_counts.sh lcm [--sizes 16,1024] [--rounds SHORT,LONG]     about a minute
 #   scripts/bench_counts.sh matrix [--models fastdds,lcm] [--sizes 16] [--rounds SHORT,LONG]
 #       every cross pair of --models (cyclonedds, fastdds, lcm), a few minutes a pair
+#   --keep DIR  also keeps the raw strace tables and callgrind profiles there (for
+#               callgrind_annotate by function)
 # Environment: POLYPORT_BUILD_DIR (default: build), POLYPORT_JOBS (2).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,16 +16,18 @@ source scripts/bench_common.sh
 benchmark="${1:-}"
 case "$benchmark" in
   lcm | matrix) shift ;;
-  *) echo "usage: $0 lcm|matrix [--models LIST] [--sizes LIST] [--rounds SHORT,LONG]" >&2; exit 2 ;;
+  *) echo "usage: $0 lcm|matrix [--models LIST] [--sizes LIST] [--rounds SHORT,LONG] [--keep DIR]" >&2; exit 2 ;;
 esac
 models=fastdds,lcm
 sizes=$([ "$benchmark" = lcm ] && echo 16,1024 || echo 16)
 rounds=1000,3000
+keep=
 while [ $# -gt 0 ]; do
   case "$1" in
     --models) models="$2"; shift 2 ;;
     --sizes) sizes="$2"; shift 2 ;;
     --rounds) rounds="$2"; shift 2 ;;
+    --keep) keep="$2"; shift 2 ;;
     *) echo "$0: unknown option $1" >&2; exit 2 ;;
   esac
 done
@@ -52,4 +56,7 @@ unshare -n bash -c 'ip link set lo up && ip link set lo multicast on && ip route
   --profiles "$work/profiles" --result "$work/result.json" --rounds "$rounds"
 cp "$work/counts.json" "$out.json"
 cp "$work/counts.md" "$out.md"
+if [ -n "$keep" ]; then
+  mkdir -p "$keep" && cp "$work"/counts.*.strace "$work"/counts.*.callgrind "$keep"/ && echo "raw counts: $keep"
+fi
 echo "results: $out.{json,md}"
