@@ -2,6 +2,7 @@
 #include "type_printer.hpp"
 
 #include <cstdio>
+#include <string>
 
 #include "polyport/types/dbc.hpp"
 
@@ -29,8 +30,18 @@ void describe_dbc(const DbcMessage& message, nlohmann::json& out) {
                      {"msb_bit", s.msb_bit}};
     if (s.float_kind != DbcFloatKind::none) j["float"] = s.float_kind == DbcFloatKind::float32 ? "float32" : "float64";
     if (s.has_range()) j["range"] = {s.minimum, s.maximum};
-    if (s.mux_role == DbcMuxRole::multiplexer) j["multiplexer"] = true;
-    if (s.mux_role == DbcMuxRole::multiplexed) j["multiplexed_by"] = s.mux_value;
+    if (s.is_switch()) j["multiplexer"] = true;
+    if (s.mux_role == DbcMuxRole::multiplexed && s.mux_parent >= 0) {
+      // The switch that selects it and the switch's raw values that do ("1", "1-3, 8").
+      std::string values;
+      for (const DbcMuxRange& range : s.mux_ranges) {
+        if (!values.empty()) values += ", ";
+        values += std::to_string(range.low);
+        if (range.high != range.low) values += "-" + std::to_string(range.high);
+      }
+      j["multiplexed_by"] = {{"multiplexer", message.signals[static_cast<std::size_t>(s.mux_parent)].name},
+                             {"values", values}};
+    }
     frame["signals"].push_back(std::move(j));
   }
   out["dbc"] = std::move(frame);
@@ -57,7 +68,10 @@ void print_dbc(const nlohmann::json& type, std::ostream& out) {
     if (s.contains("range")) out << " [" << s["range"][0].get<double>() << ", " << s["range"][1].get<double>() << "]";
     if (!s["unit"].get<std::string>().empty()) out << " " << s["unit"].get<std::string>();
     if (s.contains("multiplexer")) out << "  multiplexer";
-    if (s.contains("multiplexed_by")) out << "  when multiplexer = " << s["multiplexed_by"];
+    if (s.contains("multiplexed_by")) {
+      out << "  when " << s["multiplexed_by"]["multiplexer"].get<std::string>() << " = "
+          << s["multiplexed_by"]["values"].get<std::string>();
+    }
     out << "\n";
   }
 }

@@ -12,11 +12,17 @@
 // starts mid-byte. The window, shift and mask are worked out once, here, from the DBC
 // start bit; pack and unpack are then a load, a shift and a mask per signal.
 //
-// Multiplexed messages: decode writes NaN to the field of every multiplexed signal whose
-// multiplexer value is not the frame's; encode packs only those whose value is the
-// multiplexer field's raw value and ignores the other fields.
+// Multiplexed messages (plain and extended): decode writes NaN to the field of every
+// multiplexed signal its switch does not select; encode packs only the signals their switches
+// select and ignores the other fields. Switches come before the signals they select (the
+// evaluation order, worked out here), so one pass decides presence from the switches' raw
+// values already read or packed; a message without switches skips all of it.
+#include <algorithm>
+#include <array>
 #include <bit>
+#include <climits>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <memory>
@@ -42,14 +48,16 @@ struct SignalSlot {
   double raw_end = 0.0;         // integers: one past the largest raw value (exact in double)
   std::int64_t raw_low_int = 0;
   std::uint64_t raw_high = 0;   // the largest raw value, as bits
-  std::int64_t mux_value = 0;
   std::uint32_t field_offset = 0;
+  std::int16_t parent_switch = -1;  // the number of the switch that selects it; -1: always there
+  std::int16_t own_switch = -1;     // its number as a switch; -1: not one
+  std::uint16_t ranges_begin = 0;   // the parent's raw values that select it: DbcCodec::ranges_
+  std::uint16_t ranges_end = 0;
   std::uint32_t window = 0;     // index of the first byte of the 8-byte window
   std::uint8_t shift = 0;       // right shift that brings the LSB to bit 0 (no spill)
   std::uint8_t spill = 0;       // bits in the byte after the window (0: none)
   std::uint8_t sign_shift = 0;  // 64 - length, for sign extension
   bool motorola = false;
-  bool muxed = false;
   bool has_range = false;
   RawKind kind = RawKind::unsigned_int;
 };
@@ -170,12 +178,20 @@ inline bool to_raw(const SignalSlot& slot, double physical, std::uint64_t& raw,
   return true;
 }
 
+// Switches a message may have (their raw values are kept on the stack while a frame is worked on).
+constexpr std::size_t kMaxSwitches = 64;
+
+struct Multiplexing {
+  std::vector<std::uint16_t> order;  // slots, every switch before the signals it selects
+  std::vector<DbcMuxRange> ranges;
+};
+
 class DbcCodec final : public Codec {
  public:
   DbcCodec(const Type& type, const Type& layout, std::uint32_t length, std::vector<SignalSlot> slots,
-           std::int32_t multiplexer)
+           Multiplexing multiplexing)
       : type_(type), layout_size_(layout.size), length_(length), slots_(std::move(slots)),
-        multiplexer_(multiplexer) {}
+        order_(std::move(multiplexing.order)), ranges_(std::move(multiplexing.ranges)) {}
 
   WireFormat format() const noexcept override { return WireFormat::dbc; }
   const Type& type() const noexcept override { return type_; }
@@ -193,16 +209,24 @@ class DbcCodec final : public Codec {
       if (length_ != 0) std::memcpy(short_frame, bytes, length_);
       bytes = short_frame;
     }
-    std::int64_t selected = 0;
-    if (multiplexer_ >= 0) {
-      const SignalSlot& slot = slots_[static_cast<std::size_t>(multiplexer_)];
-      const std::uint64_t raw = extract(slot, bytes);
-      selected = slot.kind == RawKind::signed_int ? signed_raw(slot, raw) : static_cast<std::int64_t>(raw);
+    if (order_.empty()) {
+      for (const SignalSlot& slot : slots_) {
+        const double value = to_physical(slot, extract(slot, bytes));
+        std::memcpy(flat + slot.field_offset, &value, sizeof value);
+      }
+      return {CodecError::ok, layout_size_, 0};
     }
-    for (const SignalSlot& slot : slots_) {
-      const double value = slot.muxed && slot.mux_value != selected
-                               ? std::numeric_limits<double>::quiet_NaN()
-                               : to_physical(slot, extract(slot, bytes));
+    Switches switches;
+    for (const std::uint16_t index : order_) {
+      const SignalSlot& slot = slots_[index];
+      double value = std::numeric_limits<double>::quiet_NaN();
+      const bool present = switches.selects(*this, slot);
+      std::uint64_t raw = 0;
+      if (present) {
+        raw = extract(slot, bytes);
+        value = to_physical(slot, raw);
+      }
+      switches.set(slot, present, raw);
       std::memcpy(flat + slot.field_offset, &value, sizeof value);
     }
     return {CodecError::ok, layout_size_, 0};
@@ -216,27 +240,53 @@ class DbcCodec final : public Codec {
     auto* bytes = length_ < 8 ? short_frame : reinterpret_cast<std::uint8_t*>(wire);
     std::memset(bytes, 0, length_ < 8 ? sizeof short_frame : length_);
     std::uint32_t clamped = 0;
-    std::int64_t selected = 0;
     std::uint64_t raw = 0;
-    if (multiplexer_ >= 0) {
-      // The multiplexer goes first: its (clamped) raw value decides what else is packed.
-      const SignalSlot& slot = slots_[static_cast<std::size_t>(multiplexer_)];
-      if (!to_raw(slot, field(flat, slot), raw, clamped)) return {CodecError::bad_value, 0, 0};
-      insert(slot, bytes, raw);
-      selected = slot.kind == RawKind::signed_int ? signed_raw(slot, raw) : static_cast<std::int64_t>(raw);
-    }
-    for (std::size_t i = 0; i < slots_.size(); ++i) {
-      const SignalSlot& slot = slots_[i];
-      if (static_cast<std::int32_t>(i) == multiplexer_) continue;
-      if (slot.muxed && slot.mux_value != selected) continue;
-      if (!to_raw(slot, field(flat, slot), raw, clamped)) return {CodecError::bad_value, 0, 0};
-      insert(slot, bytes, raw);
+    if (order_.empty()) {
+      for (const SignalSlot& slot : slots_) {
+        if (!to_raw(slot, field(flat, slot), raw, clamped)) return {CodecError::bad_value, 0, 0};
+        insert(slot, bytes, raw);
+      }
+    } else {
+      // A switch's (clamped) raw value decides what it selects.
+      Switches switches;
+      for (const std::uint16_t index : order_) {
+        const SignalSlot& slot = slots_[index];
+        const bool present = switches.selects(*this, slot);
+        if (present) {
+          if (!to_raw(slot, field(flat, slot), raw, clamped)) return {CodecError::bad_value, 0, 0};
+          insert(slot, bytes, raw);
+        }
+        switches.set(slot, present, raw);
+      }
     }
     if (length_ < 8 && length_ != 0) std::memcpy(wire, short_frame, length_);
     return {CodecError::ok, length_, clamped};
   }
 
  private:
+  // The switches' state while one frame is worked on: which are in the frame, and their values.
+  struct Switches {
+    std::array<std::int64_t, kMaxSwitches> value{};
+    std::array<bool, kMaxSwitches> present{};
+
+    bool selects(const DbcCodec& codec, const SignalSlot& slot) const noexcept {
+      if (slot.parent_switch < 0) return true;
+      const auto parent = static_cast<std::size_t>(slot.parent_switch);
+      if (!present[parent]) return false;
+      for (std::uint16_t i = slot.ranges_begin; i < slot.ranges_end; ++i) {
+        const DbcMuxRange& range = codec.ranges_[i];
+        if (value[parent] >= range.low && value[parent] <= range.high) return true;
+      }
+      return false;
+    }
+    void set(const SignalSlot& slot, bool in_frame, std::uint64_t raw) noexcept {
+      if (slot.own_switch < 0) return;
+      const auto own = static_cast<std::size_t>(slot.own_switch);
+      present[own] = in_frame;
+      value[own] = slot.kind == RawKind::signed_int ? signed_raw(slot, raw) : static_cast<std::int64_t>(raw);
+    }
+  };
+
   static double field(const std::byte* flat, const SignalSlot& slot) noexcept {
     double value;
     std::memcpy(&value, flat + slot.field_offset, sizeof value);
@@ -247,7 +297,8 @@ class DbcCodec final : public Codec {
   std::uint32_t layout_size_;
   std::uint32_t length_;
   std::vector<SignalSlot> slots_;
-  std::int32_t multiplexer_;
+  std::vector<std::uint16_t> order_;  // empty: no switches, the slots in their order
+  std::vector<DbcMuxRange> ranges_;
 };
 
 // Works out where a signal's bits are; the message's checks have passed.
@@ -259,8 +310,6 @@ SignalSlot make_slot(const DbcSignal& signal, std::uint32_t length, const Field&
   slot.minimum = signal.minimum;
   slot.maximum = signal.maximum;
   slot.has_range = signal.has_range();
-  slot.muxed = signal.mux_role == DbcMuxRole::multiplexed;
-  slot.mux_value = signal.mux_value;
   slot.motorola = signal.byte_order == DbcByteOrder::motorola;
   slot.mask = signal.length == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << signal.length) - 1;
   slot.sign_shift = static_cast<std::uint8_t>(64 - signal.length);
@@ -316,7 +365,8 @@ Result<std::unique_ptr<Codec>> make_dbc_codec(const Type& type) {
   }
   std::vector<SignalSlot> slots;
   slots.reserve(message->signals.size());
-  std::int32_t multiplexer = -1;
+  std::vector<std::int16_t> switch_of(message->signals.size(), -1);
+  std::int16_t switches = 0;
   for (std::size_t i = 0; i < message->signals.size(); ++i) {
     const DbcSignal& signal = message->signals[i];
     const Field& field = layout.fields[i];
@@ -338,22 +388,56 @@ Result<std::unique_ptr<Codec>> make_dbc_codec(const Type& type) {
     if (!(signal.factor != 0.0) || !std::isfinite(signal.factor) || !std::isfinite(signal.offset)) {
       return make_error(what + ": the factor must be finite and not 0, the offset finite");
     }
-    if (signal.mux_role == DbcMuxRole::multiplexer) {
-      if (multiplexer >= 0) return make_error(where + ": more than one multiplexer signal");
-      if (signal.float_kind != DbcFloatKind::none) {
-        return make_error(what + ": a multiplexer must be an integer");
+    if (signal.is_switch()) {
+      if (signal.float_kind != DbcFloatKind::none) return make_error(what + ": a multiplexer must be an integer");
+      if (static_cast<std::size_t>(switches) == kMaxSwitches) {
+        return make_error(where + ": more than " + std::to_string(kMaxSwitches) + " multiplexers");
       }
-      multiplexer = static_cast<std::int32_t>(i);
+      switch_of[i] = switches++;
     }
     slots.push_back(make_slot(signal, message->length, field));
+    slots.back().own_switch = switch_of[i];
   }
-  for (const DbcSignal& signal : message->signals) {
-    if (signal.mux_role == DbcMuxRole::multiplexed && multiplexer < 0) {
-      return make_error(where + ": signal '" + signal.name + "' is multiplexed but there is no multiplexer");
+  Multiplexing multiplexing;
+  if (switches == 0) {
+    for (const DbcSignal& signal : message->signals) {
+      if (signal.mux_role == DbcMuxRole::multiplexed) {
+        return make_error(where + ": signal '" + signal.name + "' is multiplexed but there is no multiplexer");
+      }
     }
+    return std::unique_ptr<Codec>(std::make_unique<DbcCodec>(type, layout, message->length, std::move(slots),
+                                                             std::move(multiplexing)));
   }
-  return std::unique_ptr<Codec>(
-      std::make_unique<DbcCodec>(type, layout, message->length, std::move(slots), multiplexer));
+  // How deep each signal sits under switches; the loader refuses loops, this only guards.
+  const std::size_t count = message->signals.size();
+  std::vector<std::size_t> depth(count, 0);
+  for (std::size_t i = 0; i < count; ++i) {
+    const DbcSignal& signal = message->signals[i];
+    if (signal.mux_role != DbcMuxRole::multiplexed) continue;
+    const std::string what = where + ": signal '" + signal.name + "'";
+    const std::int32_t parent = signal.mux_parent;
+    if (parent < 0 || static_cast<std::size_t>(parent) >= count || switch_of[static_cast<std::size_t>(parent)] < 0 ||
+        signal.mux_ranges.empty()) {
+      return make_error(what + ": is multiplexed but has no multiplexer");
+    }
+    for (std::int32_t at = parent; at >= 0; at = message->signals[static_cast<std::size_t>(at)].mux_parent) {
+      if (++depth[i] > count) return make_error(what + ": its multiplexers select each other");
+    }
+    SignalSlot& slot = slots[i];
+    slot.parent_switch = switch_of[static_cast<std::size_t>(parent)];
+    if (multiplexing.ranges.size() + signal.mux_ranges.size() > UINT16_MAX) {
+      return make_error(where + ": too many multiplexer value ranges");
+    }
+    slot.ranges_begin = static_cast<std::uint16_t>(multiplexing.ranges.size());
+    multiplexing.ranges.insert(multiplexing.ranges.end(), signal.mux_ranges.begin(), signal.mux_ranges.end());
+    slot.ranges_end = static_cast<std::uint16_t>(multiplexing.ranges.size());
+  }
+  if (count > UINT16_MAX) return make_error(where + ": too many signals");
+  for (std::size_t i = 0; i < count; ++i) multiplexing.order.push_back(static_cast<std::uint16_t>(i));
+  std::stable_sort(multiplexing.order.begin(), multiplexing.order.end(),
+                   [&](std::uint16_t a, std::uint16_t b) { return depth[a] < depth[b]; });
+  return std::unique_ptr<Codec>(std::make_unique<DbcCodec>(type, layout, message->length, std::move(slots),
+                                                           std::move(multiplexing)));
 }
 
 }  // namespace polyport

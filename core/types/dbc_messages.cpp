@@ -115,7 +115,6 @@ bool DbcParser::signal() {
   if (!expect_identifier("the signal name", name)) return fail();
   signal.name = std::string(name->text);
   signal.where = where(*name);
-  const Token* extended_mux = nullptr;  // `m<N>M`: multiplexed and a multiplexer itself
   if (peek().kind == TokenKind::identifier) {
     const Token& mux = next();
     const std::string_view text = mux.text;
@@ -125,7 +124,7 @@ bool DbcParser::signal() {
       std::size_t digits = 1;
       while (digits < text.size() && is_digit(text[digits])) ++digits;
       if (digits + 1 == text.size() && text.back() == 'M') {
-        extended_mux = &mux;
+        signal.mux_switch = true;  // `m<N>M`: multiplexed, and a switch itself
       } else if (digits < text.size()) {
         error(mux, "expected 'M', 'm<value>' or ':' after the signal name, found " + describe(mux));
         return fail();
@@ -200,11 +199,7 @@ bool DbcParser::signal() {
 
   // Layout, in the order a reader checks a signal line. A problem here is the message's
   // own (message_problem): the file loads, the message is unusable.
-  if (extended_mux != nullptr) {
-    message_problem(*parsed, *extended_mux,
-                    "extended multiplexing ('" + std::string(extended_mux->text) + "') is not supported", true);
-    layout_ok = false;
-  }
+  if (signal.mux_switch) parsed->extended = true;
   if (signal.factor == 0) {
     message_problem(*parsed, *factor_token, "the factor of signal '" + signal.name + "' must not be 0");
     layout_ok = false;
@@ -229,10 +224,9 @@ bool DbcParser::signal() {
     }
   }
   if (signal.mux_role == DbcMuxRole::multiplexer && message.multiplexer >= 0) {
-    message_problem(*parsed, *name, "message '" + message.name + "' already has a multiplexer, '" +
-                                        message.signals[static_cast<std::size_t>(message.multiplexer)].name +
-                                        "'");
-    layout_ok = false;
+    // Extended multiplexing may put it under another switch (SG_MUL_VAL_).
+    plain_problem(*parsed, *name, "message '" + message.name + "' already has a multiplexer, '" +
+                                      message.signals[static_cast<std::size_t>(message.multiplexer)].name + "'");
   }
   // From here on the line has been read to its end: an error marks the message, and the
   // next line is parsed normally.
@@ -287,9 +281,11 @@ bool DbcParser::signal() {
     else if (group == nullptr && muxed_owner_[bit] >= 0) overlapped = muxed_owner_[bit];
   }
   if (overlapped >= 0) {
-    message_problem(*parsed, *name, "signal '" + signal.name + "' overlaps signal '" +
-                                        message.signals[static_cast<std::size_t>(overlapped)].name + "'");
-    return reject();
+    // Under extended multiplexing the values name other switches: check_message decides.
+    plain_problem(*parsed, *name, "signal '" + signal.name + "' overlaps signal '" +
+                                      message.signals[static_cast<std::size_t>(overlapped)].name + "'");
+    message.signals.push_back(std::move(signal));
+    return true;
   }
   for (std::uint32_t i = 0; i < signal.length; ++i) {
     const std::uint32_t bit = bit_at(i);
@@ -300,7 +296,7 @@ bool DbcParser::signal() {
       plain_owner_[bit] = index;
     }
   }
-  if (signal.mux_role == DbcMuxRole::multiplexer) message.multiplexer = index;
+  if (signal.mux_role == DbcMuxRole::multiplexer && message.multiplexer < 0) message.multiplexer = index;
   message.signals.push_back(std::move(signal));
   return true;
 }

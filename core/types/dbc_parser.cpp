@@ -12,7 +12,7 @@
 // file. What polyport does not model (EV_, SIG_GROUP_, relation attributes, ...) and
 // statements naming what the file does not define are skipped with one warning per kind
 // (DbcParser::once). A problem confined to one message (overlapping signals, a signal beyond
-// the frame, extended multiplexing, a duplicate id) gives that message one warning and
+// the frame, multiplexers that select each other, a duplicate id) gives that message one warning and
 // declares its name unusable (TypeRegistry::declare_unusable): a profile that names it fails
 // with the reason, the others are unaffected.
 //
@@ -65,25 +65,19 @@ bool parse_dbc(std::string_view text, const std::string& file_name, TypeRegistry
   std::shared_ptr<DbcDatabase> database = parser.database_;
   database->file = file_name;
   database->name = dbc_detail::sanitise_identifier(std::filesystem::path(file_name).stem().string());
-  // Messages with a problem of their own: one warning each (extended multiplexing: one per
-  // file), and declared unusable so that a profile naming one says why.
+  // Messages with a problem of their own: one warning each, and declared unusable so that a
+  // profile naming one says why.
   for (const ParsedMessage& parsed : parser.messages_) {
     if (parsed.pseudo || parsed.problem.empty()) continue;
     dbc_detail::Token at;
     at.line = parsed.problem_line;
     at.column = parsed.problem_column;
-    if (parsed.extended_multiplexing) {
-      parser.once("extended multiplexing", at,
-                  "messages with extended multiplexing cannot be used (polyport does not support it); the "
-                  "first is '" + parsed.message.name + "'");
-    } else {
-      std::string more;
-      if (parsed.more_problems > 0) {
-        more = " (and " + std::to_string(parsed.more_problems) +
-               (parsed.more_problems == 1 ? " more problem)" : " more problems)");
-      }
-      parser.warning(at, "message '" + parsed.message.name + "' cannot be used: " + parsed.problem + more);
+    std::string more;
+    if (parsed.more_problems > 0) {
+      more = " (and " + std::to_string(parsed.more_problems) +
+             (parsed.more_problems == 1 ? " more problem)" : " more problems)");
     }
+    parser.warning(at, "message '" + parsed.message.name + "' cannot be used: " + parsed.problem + more);
     registry.declare_unusable({database->name + "::" + parsed.message.name,
                                SourceLocation{file_name, parsed.problem_line, parsed.problem_column},
                                parsed.problem});

@@ -36,13 +36,23 @@ struct ParsedMessage {
   bool broken = false;    // not registered: a syntax error in its lines, or `problem`
   bool pseudo = false;    // VECTOR__INDEPENDENT_SIG_MSG: accepted, never registered
   // A problem confined to this message (overlapping signals, a signal beyond its length,
-  // extended multiplexing, ...): the file still loads, the message is declared unusable
+  // a multiplexer loop, ...): the file still loads, the message is declared unusable
   // (TypeRegistry::declare_unusable) and only a profile that names it fails.
   std::string problem;
   std::uint32_t problem_line = 0;
   std::uint32_t problem_column = 0;
   std::uint32_t more_problems = 0;
-  bool extended_multiplexing = false;  // its problem is extended multiplexing
+  // Extended multiplexing (an `m<N>M` switch, or an SG_MUL_VAL_ that says more than an
+  // `m<N>`): which signals can share a frame is known only once the SG_MUL_VAL_ lines are
+  // read, so check_message decides overlaps then. What the SG_ lines found under the plain
+  // rules (an overlap within one value of the `M`, a second `M`) waits in `plain_problems`
+  // and becomes the message's problem only if the message turns out plain.
+  bool extended = false;
+  struct Deferred {
+    Token at;
+    std::string message;
+  };
+  std::vector<Deferred> plain_problems;
 };
 
 // Constructs reported once per kind and file: the first one's place, and how many there are.
@@ -93,7 +103,7 @@ struct PendingMuxValues {
   Reference target;
   std::string multiplexer;
   Token multiplexer_token;
-  std::vector<std::pair<std::int64_t, std::int64_t>> ranges;
+  std::vector<DbcMuxRange> ranges;
 };
 
 struct AttributeDefinition {
@@ -141,6 +151,8 @@ class DbcParser {
   DbcSignal* resolve_signal(ParsedMessage& message, const Reference& reference);
   void resolve();
   void check_message(ParsedMessage& parsed);
+  void check_multiplexing(ParsedMessage& parsed);
+  void check_extended_overlaps(ParsedMessage& parsed);
 
   // Token helpers (those defined out of the class are in dbc_statements.cpp)
   const Token& peek(std::size_t ahead = 0) const {
@@ -176,20 +188,21 @@ class DbcParser {
     }
     occurrences_.push_back({std::string(kind), at.line, at.column, std::move(message), 1});
   }
-  // A problem confined to one message (ParsedMessage::problem); the first one is kept,
-  // except that extended multiplexing, often the cause of the others, replaces it.
-  void message_problem(ParsedMessage& parsed, const Token& at, std::string message,
-                       bool extended_multiplexing = false) {
+  // A problem confined to one message (ParsedMessage::problem); the first one is kept.
+  void message_problem(ParsedMessage& parsed, const Token& at, std::string message) {
     parsed.broken = true;
-    if (!parsed.problem.empty() && !(extended_multiplexing && !parsed.extended_multiplexing)) {
+    if (!parsed.problem.empty()) {
       ++parsed.more_problems;
       return;
     }
-    if (!parsed.problem.empty()) ++parsed.more_problems;
     parsed.problem = std::move(message);
     parsed.problem_line = at.line;
     parsed.problem_column = at.column;
-    parsed.extended_multiplexing = extended_multiplexing;
+  }
+  // The SG_ lines' plain-multiplexing problems (ParsedMessage::plain_problems): kept until
+  // check_message knows whether the message is plain.
+  void plain_problem(ParsedMessage& parsed, const Token& at, std::string message) {
+    parsed.plain_problems.push_back({at, std::move(message)});
   }
   // A statement naming a message, signal or node the file does not define: ignored.
   void dangling(const Token& at, const std::string& message) {

@@ -1,13 +1,16 @@
 // The DBC parser's resolution pass (DbcParser, dbc_parser_impl.hpp), run once the whole file
 // is read: comments, attributes (cycle time, CAN FD, bit rate switch), value descriptions,
 // signal value types and SG_MUL_VAL_ are applied to the messages and signals they name, so
-// their order in the file does not matter; then each message's multiplexing is checked.
+// their order in the file does not matter; then each message's multiplexing is checked and
+// every multiplexed signal given its switch and values (plain and extended alike).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <iterator>
 #include <string>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 #include "dbc_lexer.hpp"
 #include "dbc_parser_impl.hpp"
@@ -149,7 +152,7 @@ void DbcParser::resolve() {
                       std::string(type.kind == 1 ? "a float" : "a double") + " signal needs " +
                           std::to_string(needed) + " bits; '" + signal->name + "' has " +
                           std::to_string(signal->length));
-    } else if (needed != 0 && signal->mux_role == DbcMuxRole::multiplexer) {
+    } else if (needed != 0 && signal->is_switch()) {
       message_problem(*parsed, type.value, "multiplexer '" + signal->name + "' must be an integer signal");
     }
   }
@@ -158,39 +161,167 @@ void DbcParser::resolve() {
     ParsedMessage* parsed = resolve_message(mux.target);
     if (parsed == nullptr) continue;
     DbcSignal* signal = resolve_signal(*parsed, mux.target);
-    if (signal == nullptr) {
-      // Dropped for a problem of its own (a second multiplexer, say): extended multiplexing.
-      if (parsed->broken) {
-        message_problem(*parsed, mux.target.signal_token, "extended multiplexing (SG_MUL_VAL_) is not supported",
-                        true);
-      }
+    if (signal == nullptr) continue;
+    DbcMessage& message = parsed->message;
+    const auto named = std::find_if(message.signals.begin(), message.signals.end(),
+                                    [&](const DbcSignal& item) { return item.name == mux.multiplexer; });
+    if (named == message.signals.end()) {
+      message_problem(*parsed, mux.multiplexer_token,
+                      "SG_MUL_VAL_ names multiplexer '" + mux.multiplexer + "', which message '" + message.name +
+                          "' does not have");
       continue;
     }
-    const DbcMessage& message = parsed->message;
-    const bool restates_plain = signal->mux_role == DbcMuxRole::multiplexed && message.multiplexer >= 0 &&
-                                message.signals[static_cast<std::size_t>(message.multiplexer)].name ==
-                                    mux.multiplexer &&
-                                mux.ranges.size() == 1 && mux.ranges[0].first == signal->mux_value &&
-                                mux.ranges[0].second == signal->mux_value;
-    if (!restates_plain) {
-      message_problem(*parsed, mux.target.signal_token, "extended multiplexing (SG_MUL_VAL_) is not supported",
-                      true);
+    const auto parent = static_cast<std::int32_t>(named - message.signals.begin());
+    if (!named->is_switch()) {
+      message_problem(*parsed, mux.multiplexer_token,
+                      "SG_MUL_VAL_ makes '" + mux.multiplexer + "' the multiplexer of '" + signal->name +
+                          "', but it is not a multiplexer (M or m<N>M)");
+      continue;
     }
+    if (signal->mux_parent >= 0 && signal->mux_parent != parent) {
+      message_problem(*parsed, mux.multiplexer_token,
+                      "signal '" + signal->name + "' has SG_MUL_VAL_ lines naming two multiplexers, '" +
+                          message.signals[static_cast<std::size_t>(signal->mux_parent)].name + "' and '" +
+                          mux.multiplexer + "'");
+      continue;
+    }
+    const auto empty = std::find_if(mux.ranges.begin(), mux.ranges.end(),
+                                    [](const DbcMuxRange& range) { return range.high < range.low; });
+    if (empty != mux.ranges.end()) {
+      message_problem(*parsed, mux.target.signal_token,
+                      "SG_MUL_VAL_ of signal '" + signal->name + "' has the empty range " +
+                          std::to_string(empty->low) + "-" + std::to_string(empty->high));
+      continue;
+    }
+    const bool restates_plain = signal->mux_role == DbcMuxRole::multiplexed && !signal->mux_switch &&
+                                parent == message.multiplexer && mux.ranges.size() == 1 &&
+                                mux.ranges[0] == DbcMuxRange{signal->mux_value, signal->mux_value};
+    if (!restates_plain) parsed->extended = true;
+    // A switch (`M`) or a plain signal given a switch of its own is multiplexed from now on.
+    if (signal->mux_role == DbcMuxRole::multiplexer) signal->mux_switch = true;
+    signal->mux_role = DbcMuxRole::multiplexed;
+    signal->mux_parent = parent;
+    signal->mux_ranges.insert(signal->mux_ranges.end(), mux.ranges.begin(), mux.ranges.end());
   }
 }
 
 void DbcParser::check_message(ParsedMessage& parsed) {
-  DbcMessage& message = parsed.message;
   // A broken message is not registered; its multiplexer may be the line that was bad.
-  if (message.multiplexer >= 0 || parsed.broken) return;
-  for (const DbcSignal& signal : message.signals) {
-    if (signal.mux_role != DbcMuxRole::multiplexed) continue;
-    Token at;
-    at.line = signal.where.line;
-    at.column = signal.where.column;
-    message_problem(parsed, at, "signal '" + signal.name + "' is multiplexed but message '" + message.name +
-                                    "' has no multiplexer (M) signal");
+  if (!parsed.broken) check_multiplexing(parsed);
+}
+
+namespace {
+
+Token token_at(const SourceLocation& where) {
+  Token at;
+  at.line = where.line;
+  at.column = where.column;
+  return at;
+}
+
+}  // namespace
+
+void DbcParser::check_multiplexing(ParsedMessage& parsed) {
+  DbcMessage& message = parsed.message;
+  std::vector<DbcSignal>& signals = message.signals;
+  if (!parsed.extended) {
+    // Plain: the SG_ lines' checks stand, and every m<N> belongs to the M with the value N.
+    for (ParsedMessage::Deferred& problem : parsed.plain_problems) {
+      message_problem(parsed, problem.at, std::move(problem.message));
+    }
+    if (parsed.broken) return;
+    for (DbcSignal& signal : signals) {
+      if (signal.mux_role != DbcMuxRole::multiplexed) continue;
+      if (message.multiplexer < 0) {
+        message_problem(parsed, token_at(signal.where), "signal '" + signal.name + "' is multiplexed but message '" +
+                                                            message.name + "' has no multiplexer (M) signal");
+        return;
+      }
+      signal.mux_parent = message.multiplexer;
+      signal.mux_ranges = {{signal.mux_value, signal.mux_value}};
+    }
     return;
+  }
+  // Extended: an m<N> (or m<N>M) that no SG_MUL_VAL_ names belongs to the one top-level M.
+  std::vector<std::int32_t> top;
+  for (std::size_t i = 0; i < signals.size(); ++i) {
+    if (signals[i].mux_role == DbcMuxRole::multiplexer) top.push_back(static_cast<std::int32_t>(i));
+  }
+  for (DbcSignal& signal : signals) {
+    if (signal.mux_role != DbcMuxRole::multiplexed || signal.mux_parent >= 0) continue;
+    if (top.size() != 1) {
+      message_problem(parsed, token_at(signal.where),
+                      top.empty() ? "signal '" + signal.name + "' is multiplexed but message '" + message.name +
+                                        "' has no multiplexer (M) signal"
+                                  : "signal '" + signal.name + "' is multiplexed (m" +
+                                        std::to_string(signal.mux_value) + ") but message '" + message.name +
+                                        "' has " + std::to_string(top.size()) +
+                                        " multiplexers and no SG_MUL_VAL_ names the one that selects it");
+      return;
+    }
+    signal.mux_parent = top[0];
+    signal.mux_ranges = {{signal.mux_value, signal.mux_value}};
+  }
+  message.multiplexer = top.empty() ? -1 : top[0];
+  // Switches selecting each other: following the parents from any signal must end.
+  for (const DbcSignal& signal : signals) {
+    std::int32_t at = signal.mux_parent;
+    std::size_t steps = 0;
+    while (at >= 0 && steps <= signals.size()) {
+      at = signals[static_cast<std::size_t>(at)].mux_parent;
+      ++steps;
+    }
+    if (at >= 0) {
+      message_problem(parsed, token_at(signal.where),
+                      "the multiplexers of signal '" + signal.name + "' select each other (a loop of SG_MUL_VAL_)");
+      return;
+    }
+  }
+  check_extended_overlaps(parsed);
+}
+
+// Two signals may share bits only if no frame holds both: somewhere up their chains of
+// switches they need one switch to hold values that no range of the one shares with the other.
+void DbcParser::check_extended_overlaps(ParsedMessage& parsed) {
+  const std::vector<DbcSignal>& signals = parsed.message.signals;
+  const auto bits_of = [](const DbcSignal& signal) {
+    std::vector<std::uint32_t> bits;
+    const bool intel = signal.byte_order == DbcByteOrder::intel;
+    const std::uint32_t first = intel ? signal.start_bit : dbc_network_bit(signal.start_bit);
+    for (std::uint32_t i = 0; i < signal.length; ++i) bits.push_back(intel ? first + i : dbc_network_bit(first + i));
+    std::sort(bits.begin(), bits.end());
+    return bits;
+  };
+  const auto disjoint = [](const std::vector<DbcMuxRange>& a, const std::vector<DbcMuxRange>& b) {
+    for (const DbcMuxRange& x : a) {
+      for (const DbcMuxRange& y : b) {
+        if (x.low <= y.high && y.low <= x.high) return false;
+      }
+    }
+    return true;
+  };
+  // Never in one frame: a switch both need with values apart.
+  const auto exclusive = [&](std::size_t a, std::size_t b) {
+    for (std::size_t x = a; signals[x].mux_parent >= 0; x = static_cast<std::size_t>(signals[x].mux_parent)) {
+      for (std::size_t y = b; signals[y].mux_parent >= 0; y = static_cast<std::size_t>(signals[y].mux_parent)) {
+        if (signals[x].mux_parent == signals[y].mux_parent && disjoint(signals[x].mux_ranges, signals[y].mux_ranges)) {
+          return true;
+        }
+      }
+    }
+    return false;
+  };
+  std::vector<std::vector<std::uint32_t>> bits;
+  for (const DbcSignal& signal : signals) bits.push_back(bits_of(signal));
+  for (std::size_t b = 1; b < signals.size(); ++b) {
+    for (std::size_t a = 0; a < b; ++a) {
+      std::vector<std::uint32_t> shared;
+      std::set_intersection(bits[a].begin(), bits[a].end(), bits[b].begin(), bits[b].end(), std::back_inserter(shared));
+      if (shared.empty() || exclusive(a, b)) continue;
+      message_problem(parsed, token_at(signals[b].where),
+                      "signal '" + signals[b].name + "' overlaps signal '" + signals[a].name + "'");
+      return;
+    }
   }
 }
 

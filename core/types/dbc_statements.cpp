@@ -464,8 +464,8 @@ bool DbcParser::value_type() {
   return expect(';', "after the signal value type");
 }
 
-// SG_MUL_VAL_ <id> <signal> <multiplexer> <lo>-<hi>, ... ; extended multiplexing. Only the
-// form that restates a plain `m<N>` signal (one range N-N) is accepted.
+// SG_MUL_VAL_ <id> <signal> <multiplexer> <lo>-<hi>, ... ; extended multiplexing: the switch
+// that selects the signal and the switch's raw values that do (applied in resolve()).
 bool DbcParser::mux_values() {
   PendingMuxValues pending;
   if (!signal_reference(pending.target)) return false;
@@ -492,7 +492,7 @@ bool DbcParser::mux_values() {
       error(low, "multiplexer value range is out of range");
       return false;
     }
-    pending.ranges.emplace_back(static_cast<std::int64_t>(lo), static_cast<std::int64_t>(hi));
+    pending.ranges.push_back({static_cast<std::int64_t>(lo), static_cast<std::int64_t>(hi)});
     if (peek().is(',')) next();
   }
   next();

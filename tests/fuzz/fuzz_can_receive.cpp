@@ -28,7 +28,8 @@ namespace {
 using namespace polyport;
 
 // Intel and Motorola, signed and unsigned, scaled and offset signals; an extended-id
-// multiplexed message; a 64-byte CAN FD message with a float signal.
+// multiplexed message; one with nested switches and value ranges (extended multiplexing,
+// signals sharing bits under different values); a 64-byte CAN FD message with a float signal.
 constexpr std::string_view kDbc = R"(VERSION ""
 NS_ :
 BS_:
@@ -48,11 +49,21 @@ BO_ 2147484160 Pages: 8 A
  SG_ volts m1 : 8|16@1+ (0.001,0) [0|65.535] "V" B
  SG_ temp m2 : 8|8@1- (1,0) [-128|127] "degC" B
  SG_ seq : 56|8@1+ (1,0) [0|255] "" B
+BO_ 258 Nested: 8 A
+ SG_ service M : 0|8@1+ (1,0) [0|255] "" B
+ SG_ pid m1M : 8|8@1+ (1,0) [0|255] "" B
+ SG_ speed m13 : 16|8@1+ (1,0) [0|255] "" B
+ SG_ rpm m12 : 23|16@0- (0.25,0) [0|0] "" B
+ SG_ dtc m3 : 8|16@1+ (1,0) [0|0] "" B
 BO_ 768 Cells: 64 A
  SG_ cell : 0|16@1+ (0.001,0) [0|65.535] "V" B
  SG_ yaw : 32|32@1- (1,0) [0|0] "rad/s" B
  SG_ tail : 511|8@0+ (1,0) [0|255] "" B
 SIG_VALTYPE_ 768 yaw : 1;
+SG_MUL_VAL_ 258 pid service 1-1;
+SG_MUL_VAL_ 258 speed pid 13-13, 20-29;
+SG_MUL_VAL_ 258 rpm pid 12-12;
+SG_MUL_VAL_ 258 dtc service 3-7;
 )";
 
 constexpr std::string_view kBusEvent = R"(module polyport {
@@ -114,7 +125,7 @@ struct Path {
     from.name = "bus";
     from.profile.model = "socketcan";
     from.profile.model_settings = settings;
-    const char* received[] = {"fz::Drive", "fz::Pages", "fz::Cells"};
+    const char* received[] = {"fz::Drive", "fz::Pages", "fz::Nested", "fz::Cells"};
     for (const char* type : received) from.profile.ports.push_back(port_spec(type + 4, PortDirection::output, type));
     from.profile.ports.push_back(port_spec("events", PortDirection::output, "polyport::CanBusEvent"));
     source = socketcan::SocketCanAdaptor::create(from, types, diagnostics);

@@ -167,6 +167,38 @@ TEST_P(SocketCanPassthrough, SendsTheFrameOnAnotherInterface) {
 
 POLYPORT_BOTH_CAN_WAITS(SocketCanPassthrough);
 
+// CAN -> CAN converting, with nested multiplexers (extended multiplexing, SG_MUL_VAL_):
+// Cascaded (0x642) from vcan0 goes out on vcan1 as CascadedOut (0x652), decoded and encoded
+// again, so candump shows which multiplexed signals polyport found in each frame. MuxA = 2
+// puts MuxB in the frame and MuxB = 0 puts Value in it; with MuxB = 1 Value is absent and not
+// sent (its byte stays zero), whatever the incoming frame holds there.
+TEST_F(SocketCanEngineTest, NestedMultiplexersAreDecodedAndEncodedAgain) {
+  ASSERT_TRUE(build("mux_convert_app.xml")) << problems();
+  start();
+  int sent = 0;
+  // One candump per frame: it binds some time after it starts, so the frame is sent every
+  // 20 ms until candump has printed one (and exited).
+  const auto forwarded_as = [&](const char* frame) {
+    CanPeer candump({"candump", "-L", "-n", "1", "vcan1"});
+    EXPECT_EQ(candump.error(), "");
+    const auto deadline = Clock::now() + kDeadline;
+    while (!candump.output_ready(sent == 0 ? 0 : 20)) {
+      if (Clock::now() > deadline) return "candump printed nothing within 5 s, " + std::to_string(sent) + " frames sent";
+      EXPECT_EQ(cansend("vcan0", frame), "");
+      ++sent;
+    }
+    EXPECT_TRUE(candump.finish(deadline).has_value()) << candump.output();
+    return candump.output().substr(0, candump.output().find('\n'));
+  };
+  const std::string all_there = forwarded_as("642#02002A0000000000");
+  EXPECT_NE(all_there.find(") vcan1 652#02002A0000000000"), std::string::npos) << all_there;
+  const std::string value_absent = forwarded_as("642#02012A0000000000");
+  EXPECT_NE(value_absent.find(") vcan1 652#0201000000000000"), std::string::npos) << value_absent;
+  EXPECT_TRUE(eventually([&] { return port_counters("bus1", "cascaded")["sent"] == sent; }, kDeadline))
+      << port_counters("bus1", "cascaded").dump(2) << " after " << sent << " frames";
+  EXPECT_EQ(port_counters("bus1", "cascaded")["send_failed"], 0);
+}
+
 TEST_F(SocketCanEngineTest, FdOnAClassicInterfaceFailsTheStart) {
   ASSERT_TRUE(build("fd_on_classic_app.xml")) << problems();
   std::vector<std::string> warnings;

@@ -222,6 +222,20 @@ CodecResult decode(const Codec& codec, const Bytes& frame, Sample& sample) {
                       static_cast<std::uint32_t>(frame.size()), sample.data(), sample.size());
 }
 
+// Decodes `frame` and checks the named fields (NaN: the signal is not in the frame).
+void expect_decoded(const Codec& codec, const Type& type, const Bytes& frame,
+                    std::initializer_list<std::pair<const char*, double>> want) {
+  Sample sample(type);
+  ASSERT_TRUE(decode(codec, frame, sample).ok()) << ::testing::PrintToString(frame);
+  for (const auto& [field, value] : want) {
+    if (std::isnan(value)) {
+      EXPECT_TRUE(std::isnan(sample.get(field))) << field << " in " << ::testing::PrintToString(frame);
+    } else {
+      EXPECT_DOUBLE_EQ(sample.get(field), value) << field << " in " << ::testing::PrintToString(frame);
+    }
+  }
+}
+
 // ---------------------------------------------------------------------------------------
 // Parsing a realistic file
 
@@ -666,14 +680,12 @@ TEST_F(DbcFixture, DbcErrorMultiplexing) {
                 "'NoSelector' has no multiplexer (M) signal",
                 "bad.dbc:5:6: warning: message 'TwoSelectors' cannot be used: message 'TwoSelectors' already has a "
                 "multiplexer, 'A'",
-                "bad.dbc:8:8: warning: messages with extended multiplexing cannot be used (polyport does not "
-                "support it); the first is 'Extended' (1 in this file)",
                 "bad.dbc:10:8: expected 'M', 'm<value>' or ':' after the signal name, found 'x'",
                 "bad.dbc:13:20: warning: message 'FloatSelector' cannot be used: multiplexer 'F' must be an "
                 "integer signal",
             }));
   EXPECT_TRUE(registry_.declared().empty());
-  EXPECT_EQ(unusable("bad::Extended"), "bad.dbc:8:8: extended multiplexing ('m1M') is not supported");
+  EXPECT_EQ(unusable("bad::Extended"), "");  // its syntax error is the file's, not the message's
 }
 
 TEST_F(DbcFixture, DbcErrorStrayTokensAndStatements) {
@@ -1333,21 +1345,86 @@ TEST_F(DbcFixture, DbcRealOpendbcStyleFileLoadsAndOnlyTheBrokenMessageIsUnusable
   EXPECT_TRUE(radar.fd);
 }
 
-TEST_F(DbcFixture, DbcRealExtendedMultiplexingMakesItsMessagesUnusableWithOneWarning) {
+TEST_F(DbcFixture, DbcRealExtendedMultiplexingDecodesAndEncodesNestedSwitches) {
   ASSERT_TRUE(registry_.add_dbc_file(dbc_path("extended_mux.dbc"), diagnostics_))
       << ::testing::PrintToString(rendered(diagnostics_));
+  // The one message whose signals meet in a frame (A = 1, B = 2 holds C and D on one byte).
   EXPECT_EQ(relative(diagnostics_),
             std::vector<std::string>{
-                "extended_mux.dbc:20:11: warning: messages with extended multiplexing cannot be used (polyport "
-                "does not support it); the first is 'Cascaded' (3 in this file)"});
-  for (const char* name : {"extended_mux::Ranges", "extended_mux::Cascaded", "extended_mux::TwoMultiplexers"}) {
-    EXPECT_EQ(registry_.find(name), nullptr) << name;
-    EXPECT_NE(registry_.find_unusable(name), nullptr) << name;
+                "extended_mux.dbc:46:6: warning: message 'Clash' cannot be used: signal 'D' overlaps signal 'C'"});
+  EXPECT_EQ(registry_.find("extended_mux::Clash"), nullptr);
+  ASSERT_NE(registry_.find_unusable("extended_mux::Clash"), nullptr);
+
+  // The tree the SG_MUL_VAL_ lines describe.
+  const DbcMessage& cascaded = message("extended_mux::Cascaded");
+  EXPECT_EQ(cascaded.multiplexer, 0);
+  EXPECT_TRUE(signal("extended_mux::Cascaded", "MuxB").is_switch());
+  EXPECT_EQ(signal("extended_mux::Cascaded", "MuxB").mux_parent, 0);
+  EXPECT_EQ(signal("extended_mux::Cascaded", "Value").mux_parent, 1);
+  EXPECT_EQ(signal("extended_mux::Ranges", "Flag").mux_ranges,
+            (std::vector<DbcMuxRange>{{8, 8}, {16, 16}, {24, 24}}));
+  EXPECT_EQ(signal("extended_mux::TwoMultiplexers", "S1").mux_parent, 0);  // an M put under S0
+
+  // Ranges: Flag is in frames whose Page is 8, 16 or 24.
+  auto ranges = codec("extended_mux::Ranges");
+  ASSERT_NE(ranges, nullptr);
+  for (const std::uint8_t page : {8, 16, 24}) {
+    expect_decoded(*ranges, type("extended_mux::Ranges"), Bytes{page, 0x01, 0, 0, 0, 0, 0, 0}, {{"Flag", 1.0}});
   }
-  EXPECT_EQ(registry_.find_unusable("extended_mux::Cascaded")->reason,
-            "extended multiplexing ('m2M') is not supported");
-  EXPECT_EQ(registry_.find_unusable("extended_mux::Ranges")->reason,
-            "extended multiplexing (SG_MUL_VAL_) is not supported");
+  expect_decoded(*ranges, type("extended_mux::Ranges"), Bytes{9, 0x01, 0, 0, 0, 0, 0, 0}, {{"Flag", kNaN}});
+
+  // Cascaded: Value needs MuxB = 0, and MuxB needs MuxA = 2; a switch that is not in the
+  // frame selects nothing.
+  auto nested = codec("extended_mux::Cascaded");
+  ASSERT_NE(nested, nullptr);
+  const char* cascaded_name = "extended_mux::Cascaded";
+  expect_decoded(*nested, type(cascaded_name), Bytes{2, 0, 42, 0, 0, 0, 0, 0}, {{"MuxA", 2}, {"MuxB", 0}, {"Value", 42}});
+  expect_decoded(*nested, type(cascaded_name), Bytes{2, 1, 42, 0, 0, 0, 0, 0}, {{"MuxB", 1}, {"Value", kNaN}});
+  expect_decoded(*nested, type(cascaded_name), Bytes{3, 0, 42, 0, 0, 0, 0, 0}, {{"MuxB", kNaN}, {"Value", kNaN}});
+
+  Sample out(type(cascaded_name));
+  out.set("MuxA", 2.0);
+  out.set("MuxB", 0.0);
+  out.set("Value", 42.0);
+  Bytes frame;
+  ASSERT_TRUE(encode(*nested, out, frame).ok());
+  EXPECT_EQ(frame, (Bytes{2, 0, 42, 0, 0, 0, 0, 0}));
+  out.set("MuxA", 3.0);  // MuxB and Value are not in such a frame: not packed, whatever they hold
+  ASSERT_TRUE(encode(*nested, out, frame).ok());
+  EXPECT_EQ(frame, (Bytes{3, 0, 0, 0, 0, 0, 0, 0}));
+  out.set("MuxA", 2.0);
+  out.set("MuxB", kNaN);  // a switch in the frame needs a value
+  EXPECT_EQ(encode(*nested, out, frame).error, CodecError::bad_value);
+  out.set("MuxB", 1.0);
+  out.set("Value", kNaN);  // not selected: its NaN does not matter
+  ASSERT_TRUE(encode(*nested, out, frame).ok());
+  EXPECT_EQ(frame, (Bytes{2, 1, 0, 0, 0, 0, 0, 0}));
+
+  // Two M, the second under the first.
+  auto two = codec("extended_mux::TwoMultiplexers");
+  ASSERT_NE(two, nullptr);
+  const char* two_name = "extended_mux::TwoMultiplexers";
+  expect_decoded(*two, type(two_name), Bytes{0x00, 7, 0, 0, 0, 0, 0, 0}, {{"S1", 0}, {"S2", 7}});
+  expect_decoded(*two, type(two_name), Bytes{0x10, 7, 0, 0, 0, 0, 0, 0}, {{"S1", 1}, {"S2", kNaN}});
+  expect_decoded(*two, type(two_name), Bytes{0x01, 7, 0, 0, 0, 0, 0, 0}, {{"S1", kNaN}, {"S2", kNaN}});
+
+  // Diagnostics: signals share bits where no frame holds both (Speed / Rpm under two Pids,
+  // Dtc under another Service than Pid).
+  auto diagnostics = codec("extended_mux::Diagnostics");
+  ASSERT_NE(diagnostics, nullptr);
+  const char* diag = "extended_mux::Diagnostics";
+  expect_decoded(*diagnostics, type(diag), Bytes{1, 12, 0x20, 0x4E, 0, 0, 0, 0},
+                 {{"Rpm", 5000.0}, {"Speed", kNaN}, {"Dtc", kNaN}});  // 0x4E20 * 0.25 rpm
+  expect_decoded(*diagnostics, type(diag), Bytes{1, 13, 88, 0, 0, 0, 0, 0}, {{"Speed", 88}, {"Rpm", kNaN}});
+  expect_decoded(*diagnostics, type(diag), Bytes{3, 0x34, 0x12, 0, 0, 0, 0, 0},
+                 {{"Dtc", 0x1234}, {"Pid", kNaN}, {"Speed", kNaN}});
+  Sample d(type(diag));
+  d.set("Service", 1.0);
+  d.set("Pid", 13.0);
+  d.set("Speed", 88.0);
+  d.set("Rpm", 1.0);  // not selected by Pid 13: its bits stay Speed's
+  ASSERT_TRUE(encode(*diagnostics, d, frame).ok());
+  EXPECT_EQ(frame, (Bytes{1, 13, 88, 0, 0, 0, 0, 0}));
 
   // SG_MUL_VAL_ that only restates m<N> is plain multiplexing.
   auto plain = codec("extended_mux::Plain");
@@ -1360,6 +1437,61 @@ TEST_F(DbcFixture, DbcRealExtendedMultiplexingMakesItsMessagesUnusableWithOneWar
   ASSERT_TRUE(decode(*plain, Bytes{0x02, 0xF6, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00}, decoded).ok());
   EXPECT_DOUBLE_EQ(decoded.get("Temperature"), -10.0);
   EXPECT_TRUE(std::isnan(decoded.get("Voltage")));
+}
+
+TEST_F(DbcFixture, DbcErrorExtendedMultiplexing) {
+  EXPECT_EQ(warnings_for("BO_ 1 Loop: 8 N\n"
+                         " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ B m1M : 8|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ C m1M : 16|8@1+ (1,0) [0|0] \"\" N\n"
+                         "BO_ 2 Ambiguous: 8 N\n"
+                         " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ B M : 8|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ C m1 : 16|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ D m2 : 24|8@1+ (1,0) [0|0] \"\" N\n"
+                         "BO_ 3 NotASwitch: 8 N\n"
+                         " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ B : 8|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ C m1 : 16|8@1+ (1,0) [0|0] \"\" N\n"
+                         "BO_ 4 NoSuchSwitch: 8 N\n"
+                         " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ C m1 : 16|8@1+ (1,0) [0|0] \"\" N\n"
+                         "BO_ 5 TwoParents: 8 N\n"
+                         " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ B m1M : 8|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ C m1 : 16|8@1+ (1,0) [0|0] \"\" N\n"
+                         "BO_ 6 Empty: 8 N\n"
+                         " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ C m1 : 16|8@1+ (1,0) [0|0] \"\" N\n"
+                         "BO_ 7 FloatSwitch: 8 N\n"
+                         " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ B m1M : 8|32@1+ (1,0) [0|0] \"\" N\n"
+                         "SIG_VALTYPE_ 7 B : 1;\n"
+                         "SG_MUL_VAL_ 1 B C 1-1;\n"
+                         "SG_MUL_VAL_ 1 C B 1-1;\n"
+                         "SG_MUL_VAL_ 2 C A 1-2;\n"
+                         "SG_MUL_VAL_ 3 C B 1-1;\n"
+                         "SG_MUL_VAL_ 4 C Z 1-1;\n"
+                         "SG_MUL_VAL_ 5 C A 1-1;\n"
+                         "SG_MUL_VAL_ 5 C B 1-1;\n"
+                         "SG_MUL_VAL_ 6 C A 3-1;\n"),
+            (std::vector<std::string>{
+                "odd.dbc:3:6: warning: message 'Loop' cannot be used: the multiplexers of signal 'B' select each "
+                "other (a loop of SG_MUL_VAL_)",
+                "odd.dbc:9:6: warning: message 'Ambiguous' cannot be used: signal 'D' is multiplexed (m2) but "
+                "message 'Ambiguous' has 2 multiplexers and no SG_MUL_VAL_ names the one that selects it",
+                "odd.dbc:27:20: warning: message 'FloatSwitch' cannot be used: multiplexer 'B' must be an integer "
+                "signal",
+                "odd.dbc:31:17: warning: message 'NotASwitch' cannot be used: SG_MUL_VAL_ makes 'B' the multiplexer "
+                "of 'C', but it is not a multiplexer (M or m<N>M)",
+                "odd.dbc:32:17: warning: message 'NoSuchSwitch' cannot be used: SG_MUL_VAL_ names multiplexer 'Z', "
+                "which message 'NoSuchSwitch' does not have",
+                "odd.dbc:34:17: warning: message 'TwoParents' cannot be used: signal 'C' has SG_MUL_VAL_ lines "
+                "naming two multiplexers, 'A' and 'B'",
+                "odd.dbc:35:15: warning: message 'Empty' cannot be used: SG_MUL_VAL_ of signal 'C' has the empty "
+                "range 3-1",
+            }));
+  EXPECT_TRUE(registry_.declared().empty());
 }
 
 TEST_F(DbcFixture, DbcRealIntegerVFrameFormatAndDlcCodeLength) {

@@ -7,10 +7,14 @@
 // (dbc_codec.cpp) uses to pack and unpack frames. Everything here is built once at load time and immutable
 // afterwards; the registry keeps it alive (TypeRegistry::retain).
 //
-// Multiplexed messages are flat too: every signal is a field. The multiplexer (`M`) field
-// selects which multiplexed (`m<N>`) signals are in the frame: decode writes NaN to the
-// fields of the ones that are absent, and encode packs only the ones whose N equals the
-// multiplexer's raw value (the others are ignored, whatever they hold).
+// Multiplexed messages are flat too: every signal is a field. A multiplexer (switch) field
+// selects which multiplexed signals are in the frame: decode writes NaN to the fields of the
+// ones that are absent, and encode packs only the ones that are present (the others are
+// ignored, whatever they hold). Plain multiplexing: one `M` switch, and `m<N>` signals present
+// when its raw value is N. Extended multiplexing (SG_MUL_VAL_): a multiplexed signal names its
+// switch and the ranges of raw values that select it, and a switch may itself be multiplexed
+// (`m<N>M`), so switches nest; a signal is present when its switch is present and holds one of
+// its values (DbcSignal::mux_parent, mux_ranges).
 #pragma once
 
 #include <cstdint>
@@ -67,8 +71,15 @@ enum class DbcFloatKind : std::uint8_t {
 
 enum class DbcMuxRole : std::uint8_t {
   none,
-  multiplexer,  // `M`
-  multiplexed,  // `m<N>`: in the frame only when the multiplexer's raw value is N
+  multiplexer,  // `M`: a switch (in every frame, unless an SG_MUL_VAL_ puts it under another)
+  multiplexed,  // `m<N>` or `m<N>M`: in the frame only when its switch selects it
+};
+
+// Raw values of a switch, both ends included.
+struct DbcMuxRange {
+  std::int64_t low = 0;
+  std::int64_t high = 0;
+  bool operator==(const DbcMuxRange&) const = default;
 };
 
 struct DbcSignal {
@@ -85,7 +96,14 @@ struct DbcSignal {
   std::string unit;
   std::vector<std::string> receivers;  // without Vector__XXX
   DbcMuxRole mux_role = DbcMuxRole::none;
-  std::int64_t mux_value = 0;          // multiplexed: the multiplexer raw value it needs
+  bool mux_switch = false;             // `m<N>M`: multiplexed, and a switch of others itself
+  std::int64_t mux_value = 0;          // multiplexed: N as written in `m<N>`
+  // Where the signal is in the frame: the index of the switch that selects it (-1: always, or
+  // only as its own switch's parents decide) and the switch's raw values that do. An
+  // SG_MUL_VAL_ line gives both; without one an `m<N>` signal belongs to the message's `M` with
+  // the one value N. Set for every multiplexed signal of a usable message.
+  std::int32_t mux_parent = -1;
+  std::vector<DbcMuxRange> mux_ranges;
   std::map<std::int64_t, std::string> value_table;  // VAL_: raw value -> description
   std::string comment;
   SourceLocation where;  // the signal's name in the SG_ line
@@ -98,6 +116,8 @@ struct DbcSignal {
   std::uint32_t last_byte = 0;
 
   bool has_range() const noexcept { return minimum < maximum; }
+  // A switch: `M`, or `m<N>M`.
+  bool is_switch() const noexcept { return mux_role == DbcMuxRole::multiplexer || mux_switch; }
 };
 
 struct DbcDatabase;
@@ -111,7 +131,7 @@ struct DbcMessage {
   bool bit_rate_switch = false;  // CANFD_BRS
   std::string transmitter;     // empty for Vector__XXX
   std::vector<DbcSignal> signals;  // declaration order = the type's field order
-  std::int32_t multiplexer = -1;   // index of the `M` signal, or -1
+  std::int32_t multiplexer = -1;   // index of the (first) `M` signal, or -1
   std::uint32_t cycle_time_ms = 0;  // GenMsgCycleTime (or its default); 0: none
   std::string comment;
   SourceLocation where;        // the message's name in the BO_ line
