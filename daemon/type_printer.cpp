@@ -1,6 +1,7 @@
 // DBC frame layouts for `polyportd types`: id, length, cycle time and each signal's bits.
 #include "type_printer.hpp"
 
+#include <cstdint>
 #include <cstdio>
 #include <string>
 
@@ -32,15 +33,11 @@ void describe_dbc(const DbcMessage& message, nlohmann::json& out) {
     if (s.has_range()) j["range"] = {s.minimum, s.maximum};
     if (s.is_switch()) j["multiplexer"] = true;
     if (s.mux_role == DbcMuxRole::multiplexed && s.mux_parent >= 0) {
-      // The switch that selects it and the switch's raw values that do ("1", "1-3, 8").
-      std::string values;
-      for (const DbcMuxRange& range : s.mux_ranges) {
-        if (!values.empty()) values += ", ";
-        values += std::to_string(range.low);
-        if (range.high != range.low) values += "-" + std::to_string(range.high);
-      }
+      // The switch that selects it and the switch's raw values that do, [low, high] each.
+      nlohmann::json values = nlohmann::json::array();
+      for (const DbcMuxRange& range : s.mux_ranges) values.push_back({range.low, range.high});
       j["multiplexed_by"] = {{"multiplexer", message.signals[static_cast<std::size_t>(s.mux_parent)].name},
-                             {"values", values}};
+                             {"values", std::move(values)}};
     }
     frame["signals"].push_back(std::move(j));
   }
@@ -69,8 +66,15 @@ void print_dbc(const nlohmann::json& type, std::ostream& out) {
     if (!s["unit"].get<std::string>().empty()) out << " " << s["unit"].get<std::string>();
     if (s.contains("multiplexer")) out << "  multiplexer";
     if (s.contains("multiplexed_by")) {
-      out << "  when " << s["multiplexed_by"]["multiplexer"].get<std::string>() << " = "
-          << s["multiplexed_by"]["values"].get<std::string>();
+      out << "  when " << s["multiplexed_by"]["multiplexer"].get<std::string>() << " =";
+      const char* separator = " ";
+      for (const auto& range : s["multiplexed_by"]["values"]) {
+        const auto low = range[0].get<std::int64_t>();
+        const auto high = range[1].get<std::int64_t>();
+        out << separator << low;
+        if (high != low) out << "-" << high;
+        separator = ", ";
+      }
     }
     out << "\n";
   }

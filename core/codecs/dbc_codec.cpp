@@ -20,7 +20,6 @@
 #include <algorithm>
 #include <array>
 #include <bit>
-#include <climits>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -179,7 +178,7 @@ inline bool to_raw(const SignalSlot& slot, double physical, std::uint64_t& raw,
 }
 
 // Switches a message may have (their raw values are kept on the stack while a frame is worked on).
-constexpr std::size_t kMaxSwitches = 64;
+constexpr std::size_t kMaxSwitches = kDbcMaxSwitches;
 
 struct Multiplexing {
   std::vector<std::uint16_t> order;  // slots, every switch before the signals it selects
@@ -265,8 +264,10 @@ class DbcCodec final : public Codec {
 
  private:
   // The switches' state while one frame is worked on: which are in the frame, and their values.
+  // Every switch is written before what it selects reads it (the order), so `value` needs no
+  // zeroing; `present` is zeroed as a guard (64 bytes).
   struct Switches {
-    std::array<std::int64_t, kMaxSwitches> value{};
+    std::array<std::int64_t, kMaxSwitches> value;
     std::array<bool, kMaxSwitches> present{};
 
     bool selects(const DbcCodec& codec, const SignalSlot& slot) const noexcept {
@@ -421,18 +422,20 @@ Result<std::unique_ptr<Codec>> make_dbc_codec(const Type& type) {
       return make_error(what + ": is multiplexed but has no multiplexer");
     }
     for (std::int32_t at = parent; at >= 0; at = message->signals[static_cast<std::size_t>(at)].mux_parent) {
-      if (++depth[i] > count) return make_error(what + ": its multiplexers select each other");
+      if (static_cast<std::size_t>(at) >= count || ++depth[i] > count) {
+        return make_error(what + ": its multiplexers select each other");
+      }
     }
     SignalSlot& slot = slots[i];
     slot.parent_switch = switch_of[static_cast<std::size_t>(parent)];
-    if (multiplexing.ranges.size() + signal.mux_ranges.size() > UINT16_MAX) {
+    if (multiplexing.ranges.size() + signal.mux_ranges.size() > kDbcMaxMuxRanges) {
       return make_error(where + ": too many multiplexer value ranges");
     }
     slot.ranges_begin = static_cast<std::uint16_t>(multiplexing.ranges.size());
     multiplexing.ranges.insert(multiplexing.ranges.end(), signal.mux_ranges.begin(), signal.mux_ranges.end());
     slot.ranges_end = static_cast<std::uint16_t>(multiplexing.ranges.size());
   }
-  if (count > UINT16_MAX) return make_error(where + ": too many signals");
+  if (count > kDbcMaxSignals) return make_error(where + ": too many signals");
   for (std::size_t i = 0; i < count; ++i) multiplexing.order.push_back(static_cast<std::uint16_t>(i));
   std::stable_sort(multiplexing.order.begin(), multiplexing.order.end(),
                    [&](std::uint16_t a, std::uint16_t b) { return depth[a] < depth[b]; });

@@ -115,7 +115,7 @@ bool parse_dbc(std::string_view text, const std::string& file_name, TypeRegistry
       field.where = signal.where;
       type.fields.push_back(std::move(field));
     }
-    TypeRegistry::layout_struct(type);  // at most 512 doubles: cannot exceed the size limit
+    TypeRegistry::layout_struct(type);  // at most kDbcMaxSignals doubles: within the size limit
     Type& stored = registry.make_type();
     stored = std::move(type);
     registry.declare(stored);

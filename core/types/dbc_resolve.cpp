@@ -4,9 +4,9 @@
 // their order in the file does not matter; then each message's multiplexing is checked and
 // every multiplexed signal given its switch and values (plain and extended alike).
 #include <algorithm>
+#include <bitset>
 #include <cmath>
 #include <cstdint>
-#include <iterator>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -166,9 +166,12 @@ void DbcParser::resolve() {
     const auto named = std::find_if(message.signals.begin(), message.signals.end(),
                                     [&](const DbcSignal& item) { return item.name == mux.multiplexer; });
     if (named == message.signals.end()) {
-      message_problem(*parsed, mux.multiplexer_token,
-                      "SG_MUL_VAL_ names multiplexer '" + mux.multiplexer + "', which message '" + message.name +
-                          "' does not have");
+      // A switch whose own line had an error is not in the list; that error is reported already.
+      if (!parsed->broken) {
+        message_problem(*parsed, mux.multiplexer_token,
+                        "SG_MUL_VAL_ names multiplexer '" + mux.multiplexer + "', which message '" + message.name +
+                            "' does not have");
+      }
       continue;
     }
     const auto parent = static_cast<std::int32_t>(named - message.signals.begin());
@@ -183,6 +186,10 @@ void DbcParser::resolve() {
                       "signal '" + signal->name + "' has SG_MUL_VAL_ lines naming two multiplexers, '" +
                           message.signals[static_cast<std::size_t>(signal->mux_parent)].name + "' and '" +
                           mux.multiplexer + "'");
+      continue;
+    }
+    if (mux.ranges.empty()) {
+      message_problem(*parsed, mux.target.signal_token, "SG_MUL_VAL_ of signal '" + signal->name + "' lists no values");
       continue;
     }
     const auto empty = std::find_if(mux.ranges.begin(), mux.ranges.end(),
@@ -206,6 +213,22 @@ void DbcParser::resolve() {
 }
 
 void DbcParser::check_message(ParsedMessage& parsed) {
+  if (!parsed.extended) {
+    // Plain: the SG_ lines' checks stand, in line order with the message's other problems.
+    for (ParsedMessage::Deferred& problem : parsed.plain_problems) {
+      const bool earlier = parsed.problem.empty() || problem.at.line < parsed.problem_line ||
+                           (problem.at.line == parsed.problem_line && problem.at.column < parsed.problem_column);
+      parsed.broken = true;
+      if (!earlier) {
+        ++parsed.more_problems;
+        continue;
+      }
+      if (!parsed.problem.empty()) ++parsed.more_problems;
+      parsed.problem = std::move(problem.message);
+      parsed.problem_line = problem.at.line;
+      parsed.problem_column = problem.at.column;
+    }
+  }
   // A broken message is not registered; its multiplexer may be the line that was bad.
   if (!parsed.broken) check_multiplexing(parsed);
 }
@@ -225,11 +248,7 @@ void DbcParser::check_multiplexing(ParsedMessage& parsed) {
   DbcMessage& message = parsed.message;
   std::vector<DbcSignal>& signals = message.signals;
   if (!parsed.extended) {
-    // Plain: the SG_ lines' checks stand, and every m<N> belongs to the M with the value N.
-    for (ParsedMessage::Deferred& problem : parsed.plain_problems) {
-      message_problem(parsed, problem.at, std::move(problem.message));
-    }
-    if (parsed.broken) return;
+    // Plain: every m<N> belongs to the M with the value N.
     for (DbcSignal& signal : signals) {
       if (signal.mux_role != DbcMuxRole::multiplexed) continue;
       if (message.multiplexer < 0) {
@@ -242,28 +261,8 @@ void DbcParser::check_multiplexing(ParsedMessage& parsed) {
     }
     return;
   }
-  // Extended: an m<N> (or m<N>M) that no SG_MUL_VAL_ names belongs to the one top-level M.
-  std::vector<std::int32_t> top;
-  for (std::size_t i = 0; i < signals.size(); ++i) {
-    if (signals[i].mux_role == DbcMuxRole::multiplexer) top.push_back(static_cast<std::int32_t>(i));
-  }
-  for (DbcSignal& signal : signals) {
-    if (signal.mux_role != DbcMuxRole::multiplexed || signal.mux_parent >= 0) continue;
-    if (top.size() != 1) {
-      message_problem(parsed, token_at(signal.where),
-                      top.empty() ? "signal '" + signal.name + "' is multiplexed but message '" + message.name +
-                                        "' has no multiplexer (M) signal"
-                                  : "signal '" + signal.name + "' is multiplexed (m" +
-                                        std::to_string(signal.mux_value) + ") but message '" + message.name +
-                                        "' has " + std::to_string(top.size()) +
-                                        " multiplexers and no SG_MUL_VAL_ names the one that selects it");
-      return;
-    }
-    signal.mux_parent = top[0];
-    signal.mux_ranges = {{signal.mux_value, signal.mux_value}};
-  }
-  message.multiplexer = top.empty() ? -1 : top[0];
-  // Switches selecting each other: following the parents from any signal must end.
+  // Extended. Switches selecting each other (SG_MUL_VAL_ in a loop): following the parents
+  // from any signal must end.
   for (const DbcSignal& signal : signals) {
     std::int32_t at = signal.mux_parent;
     std::size_t steps = 0;
@@ -277,6 +276,44 @@ void DbcParser::check_multiplexing(ParsedMessage& parsed) {
       return;
     }
   }
+  // One switch in every frame (an `M` no SG_MUL_VAL_ puts under another); an m<N> (or m<N>M)
+  // that no SG_MUL_VAL_ names belongs to it.
+  std::vector<std::int32_t> top;
+  std::size_t switches = 0;
+  std::size_t ranges = 0;
+  for (std::size_t i = 0; i < signals.size(); ++i) {
+    if (signals[i].mux_role == DbcMuxRole::multiplexer) top.push_back(static_cast<std::int32_t>(i));
+    if (signals[i].is_switch()) ++switches;
+  }
+  if (top.size() > 1) {
+    const DbcSignal& second = signals[static_cast<std::size_t>(top[1])];
+    message_problem(parsed, token_at(second.where),
+                    "message '" + message.name + "' already has a multiplexer, '" +
+                        signals[static_cast<std::size_t>(top[0])].name + "'");
+    return;
+  }
+  for (DbcSignal& signal : signals) {
+    if (signal.mux_role == DbcMuxRole::multiplexed && signal.mux_parent < 0) {
+      if (top.empty()) {
+        message_problem(parsed, token_at(signal.where), "signal '" + signal.name + "' is multiplexed but message '" +
+                                                            message.name + "' has no multiplexer (M) signal");
+        return;
+      }
+      signal.mux_parent = top[0];
+      signal.mux_ranges = {{signal.mux_value, signal.mux_value}};
+    }
+    ranges += signal.mux_ranges.size();
+  }
+  message.multiplexer = top.empty() ? -1 : top[0];
+  // What the codec carries (kDbcMax*).
+  if (switches > kDbcMaxSwitches || signals.size() > kDbcMaxSignals || ranges > kDbcMaxMuxRanges) {
+    message_problem(parsed, token_at(message.where),
+                    "message '" + message.name + "' has more than " +
+                        (switches > kDbcMaxSwitches     ? std::to_string(kDbcMaxSwitches) + " multiplexers"
+                         : signals.size() > kDbcMaxSignals ? std::to_string(kDbcMaxSignals) + " signals"
+                                                           : std::to_string(kDbcMaxMuxRanges) + " multiplexer value ranges"));
+    return;
+  }
   check_extended_overlaps(parsed);
 }
 
@@ -285,11 +322,10 @@ void DbcParser::check_multiplexing(ParsedMessage& parsed) {
 void DbcParser::check_extended_overlaps(ParsedMessage& parsed) {
   const std::vector<DbcSignal>& signals = parsed.message.signals;
   const auto bits_of = [](const DbcSignal& signal) {
-    std::vector<std::uint32_t> bits;
+    std::bitset<kMaxFrameBits> bits;
     const bool intel = signal.byte_order == DbcByteOrder::intel;
     const std::uint32_t first = intel ? signal.start_bit : dbc_network_bit(signal.start_bit);
-    for (std::uint32_t i = 0; i < signal.length; ++i) bits.push_back(intel ? first + i : dbc_network_bit(first + i));
-    std::sort(bits.begin(), bits.end());
+    for (std::uint32_t i = 0; i < signal.length; ++i) bits.set(intel ? first + i : dbc_network_bit(first + i));
     return bits;
   };
   const auto disjoint = [](const std::vector<DbcMuxRange>& a, const std::vector<DbcMuxRange>& b) {
@@ -311,13 +347,11 @@ void DbcParser::check_extended_overlaps(ParsedMessage& parsed) {
     }
     return false;
   };
-  std::vector<std::vector<std::uint32_t>> bits;
+  std::vector<std::bitset<kMaxFrameBits>> bits;
   for (const DbcSignal& signal : signals) bits.push_back(bits_of(signal));
   for (std::size_t b = 1; b < signals.size(); ++b) {
     for (std::size_t a = 0; a < b; ++a) {
-      std::vector<std::uint32_t> shared;
-      std::set_intersection(bits[a].begin(), bits[a].end(), bits[b].begin(), bits[b].end(), std::back_inserter(shared));
-      if (shared.empty() || exclusive(a, b)) continue;
+      if ((bits[a] & bits[b]).none() || exclusive(a, b)) continue;
       message_problem(parsed, token_at(signals[b].where),
                       "signal '" + signals[b].name + "' overlaps signal '" + signals[a].name + "'");
       return;

@@ -33,6 +33,13 @@ BO_ 102 Muxed: 8 N
  SG_ P2 m2 : 11|16@0+ (1,0) [0|0] "" N
  SG_ Q2 m2 : 32|24@1+ (1,0) [0|0] "" N
  SG_ Always : 56|8@1- (1,0) [0|0] "" N
+BO_ 103 Nested: 8 N
+ SG_ Service M : 0|8@1+ (1,0) [0|0] "" N
+ SG_ Pid m1M : 15|8@0+ (1,0) [0|0] "" N
+ SG_ Speed m13 : 16|8@1- (1,0) [0|0] "" N
+ SG_ Rpm m12 : 16|16@1+ (1,0) [0|0] "" N
+ SG_ Dtc m3 : 8|24@1+ (1,0) [0|0] "" N
+ SG_ Always : 56|8@1+ (1,0) [0|0] "" N
 BO_ 2147483751 Fd: 64 N
  SG_ F : 0|32@1- (1,0) [0|0] "" N
  SG_ D : 39|64@0- (1,0) [0|0] "" N
@@ -41,6 +48,10 @@ BO_ 2147483751 Fd: 64 N
  SG_ Tail : 511|3@0+ (1,0) [0|0] "" N
 SIG_VALTYPE_ 2147483751 F : 1;
 SIG_VALTYPE_ 2147483751 D : 2;
+SG_MUL_VAL_ 103 Pid Service 1-1;
+SG_MUL_VAL_ 103 Speed Pid 13-13, 40-60;
+SG_MUL_VAL_ 103 Rpm Pid 12-12;
+SG_MUL_VAL_ 103 Dtc Service 3-9;
 )";
 
 struct Fixed {
@@ -50,7 +61,7 @@ struct Fixed {
   Fixed() {
     polyport::Diagnostics diagnostics;
     if (!registry.add_dbc_text(kFixedDbc, "fixed.dbc", diagnostics)) __builtin_trap();
-    for (const char* name : {"fixed::Intel", "fixed::Motorola", "fixed::Muxed", "fixed::Fd"}) {
+    for (const char* name : {"fixed::Intel", "fixed::Motorola", "fixed::Muxed", "fixed::Nested", "fixed::Fd"}) {
       const polyport::Type* type = registry.find(name);
       if (type == nullptr) __builtin_trap();
       auto made = polyport::make_dbc_codec(*type);

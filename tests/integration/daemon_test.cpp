@@ -305,6 +305,19 @@ TEST(Daemon, TypesPrintsLayoutsFingerprintsAndFrames) {
   EXPECT_NE(out.find("heading_deg              bits 55|8  motorola signed   x2 +0 [-256, 254] deg"), std::string::npos) << out;
   EXPECT_NE(out.find("      56  double                       battery_v"), std::string::npos) << out;
 
+  // Multiplexed signals with the switch and values that select them (extended multiplexing).
+  Process mux = spawn({"types", POLYPORT_TEST_DATA "/dbc/extended_mux.dbc"}, "types-mux");
+  EXPECT_EQ(wait_exit(mux), 0) << slurp(mux.err);
+  const std::string muxed = slurp(scratch("types-mux.stdout"));
+  EXPECT_NE(muxed.find("Flag                     bits  8|1  intel    unsigned x1 +0 [0, 1]  when Page = 8, 16, 24"),
+            std::string::npos)
+      << muxed;
+  EXPECT_NE(muxed.find("MuxB                     bits  8|8  intel    unsigned x1 +0  multiplexer  when MuxA = 2"),
+            std::string::npos)
+      << muxed;
+  EXPECT_NE(muxed.find("Dtc                      bits  8|16 intel    unsigned x1 +0  when Service = 3"), std::string::npos)
+      << muxed;
+
   Process broken = spawn({"types", POLYPORT_TEST_DATA "/daemon/broken_app.xml"}, "types-broken");
   EXPECT_EQ(wait_exit(broken), 3);
   EXPECT_NE(slurp(broken.err).find("unknown kind of type file"), std::string::npos);

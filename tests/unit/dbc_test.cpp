@@ -1467,6 +1467,17 @@ TEST_F(DbcFixture, DbcErrorExtendedMultiplexing) {
                          " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" N\n"
                          " SG_ B m1M : 8|32@1+ (1,0) [0|0] \"\" N\n"
                          "SIG_VALTYPE_ 7 B : 1;\n"
+                         "BO_ 8 NoValues: 8 N\n"
+                         " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ C m1 : 16|8@1+ (1,0) [0|0] \"\" N\n"
+                         "BO_ 9 PlainTwice: 8 N\n"
+                         " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ B M : 8|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ C m1 : 16|8@1+ (1,0) [0|0] \"\" N\n"
+                         "BO_ 10 BrokenSwitch: 8 N\n"
+                         " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ B m1M : 8|8@1+ (0,0) [0|0] \"\" N\n"
+                         " SG_ C m1 : 16|8@1+ (1,0) [0|0] \"\" N\n"
                          "SG_MUL_VAL_ 1 B C 1-1;\n"
                          "SG_MUL_VAL_ 1 C B 1-1;\n"
                          "SG_MUL_VAL_ 2 C A 1-2;\n"
@@ -1474,24 +1485,79 @@ TEST_F(DbcFixture, DbcErrorExtendedMultiplexing) {
                          "SG_MUL_VAL_ 4 C Z 1-1;\n"
                          "SG_MUL_VAL_ 5 C A 1-1;\n"
                          "SG_MUL_VAL_ 5 C B 1-1;\n"
-                         "SG_MUL_VAL_ 6 C A 3-1;\n"),
+                         "SG_MUL_VAL_ 6 C A 3-1;\n"
+                         "SG_MUL_VAL_ 8 C A ;\n"
+                         "SG_MUL_VAL_ 9 C A 1-1;\n"  // restates m1 under the first M: plain
+                         "SG_MUL_VAL_ 10 C B 1-1;\n"),
             (std::vector<std::string>{
                 "odd.dbc:3:6: warning: message 'Loop' cannot be used: the multiplexers of signal 'B' select each "
                 "other (a loop of SG_MUL_VAL_)",
-                "odd.dbc:9:6: warning: message 'Ambiguous' cannot be used: signal 'D' is multiplexed (m2) but "
-                "message 'Ambiguous' has 2 multiplexers and no SG_MUL_VAL_ names the one that selects it",
+                // A second M no SG_MUL_VAL_ puts under another, whatever else the message says.
+                "odd.dbc:7:6: warning: message 'Ambiguous' cannot be used: message 'Ambiguous' already has a "
+                "multiplexer, 'A'",
                 "odd.dbc:27:20: warning: message 'FloatSwitch' cannot be used: multiplexer 'B' must be an integer "
                 "signal",
-                "odd.dbc:31:17: warning: message 'NotASwitch' cannot be used: SG_MUL_VAL_ makes 'B' the multiplexer "
+                "odd.dbc:33:6: warning: message 'PlainTwice' cannot be used: message 'PlainTwice' already has a "
+                "multiplexer, 'A'",
+                // The switch's own problem, and nothing about the SG_MUL_VAL_ that names it.
+                "odd.dbc:37:22: warning: message 'BrokenSwitch' cannot be used: the factor of signal 'B' must not "
+                "be 0",
+                "odd.dbc:42:17: warning: message 'NotASwitch' cannot be used: SG_MUL_VAL_ makes 'B' the multiplexer "
                 "of 'C', but it is not a multiplexer (M or m<N>M)",
-                "odd.dbc:32:17: warning: message 'NoSuchSwitch' cannot be used: SG_MUL_VAL_ names multiplexer 'Z', "
+                "odd.dbc:43:17: warning: message 'NoSuchSwitch' cannot be used: SG_MUL_VAL_ names multiplexer 'Z', "
                 "which message 'NoSuchSwitch' does not have",
-                "odd.dbc:34:17: warning: message 'TwoParents' cannot be used: signal 'C' has SG_MUL_VAL_ lines "
+                "odd.dbc:45:17: warning: message 'TwoParents' cannot be used: signal 'C' has SG_MUL_VAL_ lines "
                 "naming two multiplexers, 'A' and 'B'",
-                "odd.dbc:35:15: warning: message 'Empty' cannot be used: SG_MUL_VAL_ of signal 'C' has the empty "
+                "odd.dbc:46:15: warning: message 'Empty' cannot be used: SG_MUL_VAL_ of signal 'C' has the empty "
                 "range 3-1",
+                "odd.dbc:47:15: warning: message 'NoValues' cannot be used: SG_MUL_VAL_ of signal 'C' lists no "
+                "values",
             }));
   EXPECT_TRUE(registry_.declared().empty());
+}
+
+// A Motorola, signed switch with value ranges: a negative raw value selects nothing, and a
+// clamped switch value decides what is packed.
+TEST_F(DbcFixture, DbcExtendedMultiplexingSignedMotorolaSwitchWithRanges) {
+  EXPECT_EQ(warnings_for("BO_ 1 Mixed: 8 N\n"
+                         " SG_ Sel M : 7|8@0- (1,0) [0|0] \"\" N\n"
+                         " SG_ Low m1 : 15|8@0+ (1,0) [0|0] \"\" N\n"
+                         " SG_ High m6 : 15|8@0+ (1,0) [0|0] \"\" N\n"
+                         "SG_MUL_VAL_ 1 Low Sel 1-5;\n"
+                         "SG_MUL_VAL_ 1 High Sel 6-20, 100-127;\n"),
+            std::vector<std::string>{});  // Low and High share a byte: their ranges are apart
+  auto mixed = codec("odd::Mixed");
+  ASSERT_NE(mixed, nullptr);
+  const Type& t = type("odd::Mixed");
+  expect_decoded(*mixed, t, Bytes{3, 9, 0, 0, 0, 0, 0, 0}, {{"Sel", 3}, {"Low", 9}, {"High", kNaN}});
+  expect_decoded(*mixed, t, Bytes{20, 9, 0, 0, 0, 0, 0, 0}, {{"High", 9}, {"Low", kNaN}});
+  expect_decoded(*mixed, t, Bytes{21, 9, 0, 0, 0, 0, 0, 0}, {{"High", kNaN}, {"Low", kNaN}});
+  expect_decoded(*mixed, t, Bytes{0xFF, 9, 0, 0, 0, 0, 0, 0}, {{"Sel", -1}, {"High", kNaN}, {"Low", kNaN}});
+
+  Sample out(t);
+  out.set("Sel", 300.0);  // clamped to 127, which selects High
+  out.set("Low", 1.0);
+  out.set("High", 2.0);
+  Bytes frame;
+  const CodecResult encoded = encode(*mixed, out, frame);
+  ASSERT_TRUE(encoded.ok());
+  EXPECT_EQ(encoded.clamped, 1u);
+  EXPECT_EQ(frame, (Bytes{127, 2, 0, 0, 0, 0, 0, 0}));
+  out.set("Sel", 4.0);
+  ASSERT_TRUE(encode(*mixed, out, frame).ok());
+  EXPECT_EQ(frame, (Bytes{4, 1, 0, 0, 0, 0, 0, 0}));
+}
+
+// More switches than the codec carries (kDbcMaxSwitches): unusable, with the reason.
+TEST_F(DbcFixture, DbcExtendedMultiplexingPastTheCodecsLimitIsUnusable) {
+  std::string text = "BO_ 1 Many: 8 N\n SG_ A M : 0|8@1+ (1,0) [0|0] \"\" N\n";
+  for (std::size_t i = 0; i < kDbcMaxSwitches; ++i) {  // with A: one more than the limit
+    text += " SG_ S" + std::to_string(i) + " m" + std::to_string(i) + "M : 8|1@1+ (1,0) [0|0] \"\" N\n";
+  }
+  EXPECT_EQ(warnings_for(text),
+            std::vector<std::string>{"odd.dbc:1:7: warning: message 'Many' cannot be used: message 'Many' has more "
+                                     "than 64 multiplexers"});
+  EXPECT_EQ(registry_.find("odd::Many"), nullptr);
 }
 
 TEST_F(DbcFixture, DbcRealIntegerVFrameFormatAndDlcCodeLength) {

@@ -17,6 +17,7 @@
 // its values (DbcSignal::mux_parent, mux_ranges).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -34,6 +35,11 @@ inline constexpr std::uint32_t kCanExtendedFlag = 0x80000000u;
 inline constexpr std::uint32_t kCanStandardIdMask = 0x7FFu;
 inline constexpr std::uint32_t kCanExtendedIdMask = 0x1FFFFFFFu;
 inline constexpr std::uint32_t kCanMaxDataLength = 64;  // CAN FD; classic CAN carries 8
+// What the DBC codec carries in one message (it keeps the switches' values on the stack and
+// numbers signals and value ranges in 16 bits); the loader declares a message past them unusable.
+inline constexpr std::size_t kDbcMaxSwitches = 64;
+inline constexpr std::size_t kDbcMaxSignals = 65535;
+inline constexpr std::size_t kDbcMaxMuxRanges = 65535;
 
 // CAN FD maps DLC codes 9..15 to 12, 16, 20, 24, 32, 48, 64 data bytes; 0..8 are lengths.
 constexpr std::uint32_t can_dlc_to_length(std::uint32_t dlc) noexcept {
@@ -98,10 +104,11 @@ struct DbcSignal {
   DbcMuxRole mux_role = DbcMuxRole::none;
   bool mux_switch = false;             // `m<N>M`: multiplexed, and a switch of others itself
   std::int64_t mux_value = 0;          // multiplexed: N as written in `m<N>`
-  // Where the signal is in the frame: the index of the switch that selects it (-1: always, or
-  // only as its own switch's parents decide) and the switch's raw values that do. An
-  // SG_MUL_VAL_ line gives both; without one an `m<N>` signal belongs to the message's `M` with
-  // the one value N. Set for every multiplexed signal of a usable message.
+  // Multiplexed: the index of the switch that selects it and that switch's raw values that do
+  // (as the switch's raw integer, signed if the switch is: a signed switch's negative values
+  // select nothing, ranges being non-negative). An SG_MUL_VAL_ line gives both; without one an
+  // `m<N>` signal belongs to the message's one `M` with the value N. -1 and none for a signal
+  // in every frame. Set for every multiplexed signal of a usable message.
   std::int32_t mux_parent = -1;
   std::vector<DbcMuxRange> mux_ranges;
   std::map<std::int64_t, std::string> value_table;  // VAL_: raw value -> description
