@@ -225,8 +225,8 @@ bool DbcParser::signal() {
   }
   if (signal.mux_role == DbcMuxRole::multiplexer && message.multiplexer >= 0) {
     // Extended multiplexing may put it under another switch (SG_MUL_VAL_).
-    plain_problem(*parsed, *name, "message '" + message.name + "' already has a multiplexer, '" +
-                                      message.signals[static_cast<std::size_t>(message.multiplexer)].name + "'");
+    plain_problem(*parsed, *name,
+                  already_has_multiplexer(message, message.signals[static_cast<std::size_t>(message.multiplexer)]));
   }
   // From here on the line has been read to its end: an error marks the message, and the
   // next line is parsed normally.

@@ -114,6 +114,11 @@ struct AttributeDefinition {
   bool has_default = false;
 };
 
+// The problem of a second `M` that no SG_MUL_VAL_ puts under another switch.
+inline std::string already_has_multiplexer(const DbcMessage& message, const DbcSignal& first) {
+  return "message '" + message.name + "' already has a multiplexer, '" + first.name + "'";
+}
+
 // Reads all of `text` as a finite double (a leading `+` allowed); false if it is not one
 // (dbc_statements.cpp).
 bool parse_double(std::string_view text, double& out);

@@ -247,22 +247,8 @@ Token token_at(const SourceLocation& where) {
 void DbcParser::check_multiplexing(ParsedMessage& parsed) {
   DbcMessage& message = parsed.message;
   std::vector<DbcSignal>& signals = message.signals;
-  if (!parsed.extended) {
-    // Plain: every m<N> belongs to the M with the value N.
-    for (DbcSignal& signal : signals) {
-      if (signal.mux_role != DbcMuxRole::multiplexed) continue;
-      if (message.multiplexer < 0) {
-        message_problem(parsed, token_at(signal.where), "signal '" + signal.name + "' is multiplexed but message '" +
-                                                            message.name + "' has no multiplexer (M) signal");
-        return;
-      }
-      signal.mux_parent = message.multiplexer;
-      signal.mux_ranges = {{signal.mux_value, signal.mux_value}};
-    }
-    return;
-  }
-  // Extended. Switches selecting each other (SG_MUL_VAL_ in a loop): following the parents
-  // from any signal must end.
+  // Switches selecting each other (SG_MUL_VAL_ in a loop, extended multiplexing only):
+  // following the parents from any signal must end.
   for (const DbcSignal& signal : signals) {
     std::int32_t at = signal.mux_parent;
     std::size_t steps = 0;
@@ -288,8 +274,7 @@ void DbcParser::check_multiplexing(ParsedMessage& parsed) {
   if (top.size() > 1) {
     const DbcSignal& second = signals[static_cast<std::size_t>(top[1])];
     message_problem(parsed, token_at(second.where),
-                    "message '" + message.name + "' already has a multiplexer, '" +
-                        signals[static_cast<std::size_t>(top[0])].name + "'");
+                    already_has_multiplexer(message, signals[static_cast<std::size_t>(top[0])]));
     return;
   }
   for (DbcSignal& signal : signals) {
@@ -314,7 +299,8 @@ void DbcParser::check_multiplexing(ParsedMessage& parsed) {
                                                            : std::to_string(kDbcMaxMuxRanges) + " multiplexer value ranges"));
     return;
   }
-  check_extended_overlaps(parsed);
+  // A plain message's overlaps were found by its SG_ lines (plain_problems).
+  if (parsed.extended) check_extended_overlaps(parsed);
 }
 
 // Two signals may share bits only if no frame holds both: somewhere up their chains of
