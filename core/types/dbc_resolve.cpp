@@ -7,6 +7,7 @@
 #include <bitset>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -298,6 +299,27 @@ void DbcParser::check_multiplexing(ParsedMessage& parsed) {
                          : signals.size() > kDbcMaxSignals ? std::to_string(kDbcMaxSignals) + " signals"
                                                            : std::to_string(kDbcMaxMuxRanges) + " multiplexer value ranges"));
     return;
+  }
+  // Values a switch cannot hold select nothing (its raw integer: 0 up to 2^length - 1, or up to
+  // 2^(length - 1) - 1 when signed, negative ones matching no range): the message stays
+  // usable, the file's author is told once.
+  for (const DbcSignal& signal : signals) {
+    if (signal.mux_parent < 0) continue;
+    const DbcSignal& multiplexer = signals[static_cast<std::size_t>(signal.mux_parent)];
+    const std::uint32_t value_bits = multiplexer.is_signed ? multiplexer.length - 1 : multiplexer.length;
+    const std::int64_t highest =
+        value_bits >= 63 ? std::numeric_limits<std::int64_t>::max() : (std::int64_t{1} << value_bits) - 1;
+    for (const DbcMuxRange& range : signal.mux_ranges) {
+      if (range.low >= 0 && range.high <= highest) continue;
+      const std::string values =
+          range.low == range.high ? std::to_string(range.low) : std::to_string(range.low) + "-" + std::to_string(range.high);
+      once("multiplexer value out of range", token_at(signal.where),
+           "signal '" + signal.name + "' is selected by the value(s) " + values + " of multiplexer '" +
+               multiplexer.name + "', which holds 0-" + std::to_string(highest) + " (" +
+               std::to_string(multiplexer.length) + " bits" + (multiplexer.is_signed ? ", signed" : "") +
+               "): those values never select it");
+      break;
+    }
   }
   // A plain message's overlaps were found by its SG_ lines (plain_problems).
   if (parsed.extended) check_extended_overlaps(parsed);

@@ -1548,6 +1548,31 @@ TEST_F(DbcFixture, DbcExtendedMultiplexingSignedMotorolaSwitchWithRanges) {
   EXPECT_EQ(frame, (Bytes{4, 1, 0, 0, 0, 0, 0, 0}));
 }
 
+// Values a switch cannot hold (past its bits, or a plain m<N> past them) select nothing: one
+// warning for the file, the message stays usable and its other signals decode.
+TEST_F(DbcFixture, DbcMultiplexerValuesPastTheSwitchAreWarnedOnce) {
+  EXPECT_EQ(warnings_for("BO_ 1 Pids: 8 N\n"
+                         " SG_ Sel M : 0|4@1- (1,0) [0|0] \"\" N\n"
+                         " SG_ Low m1 : 8|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ Far m2 : 16|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ Plain m40 : 24|8@1+ (1,0) [0|0] \"\" N\n"
+                         "SG_MUL_VAL_ 1 Far Sel 2-3, 6-9;\n"),
+            std::vector<std::string>{"odd.dbc:4:6: warning: signal 'Far' is selected by the value(s) 6-9 of "
+                                     "multiplexer 'Sel', which holds 0-7 (4 bits, signed): those values never "
+                                     "select it (2 in this file)"});
+  auto pids = codec("odd::Pids");
+  ASSERT_NE(pids, nullptr);
+  const Type& t = type("odd::Pids");
+  expect_decoded(*pids, t, Bytes{1, 5, 6, 7, 0, 0, 0, 0}, {{"Sel", 1}, {"Low", 5}, {"Far", kNaN}, {"Plain", kNaN}});
+  expect_decoded(*pids, t, Bytes{3, 5, 6, 7, 0, 0, 0, 0}, {{"Low", kNaN}, {"Far", 6}, {"Plain", kNaN}});
+  diagnostics_ = Diagnostics();
+  EXPECT_EQ(warnings_for("BO_ 1 Fits: 8 N\n"
+                         " SG_ Sel M : 0|8@1+ (1,0) [0|0] \"\" N\n"
+                         " SG_ Top m255 : 8|8@1+ (1,0) [0|0] \"\" N\n",
+                         "fits.dbc"),
+            std::vector<std::string>{});  // 255 is the last value of an unsigned byte
+}
+
 // More switches than the codec carries (kDbcMaxSwitches): unusable, with the reason.
 TEST_F(DbcFixture, DbcExtendedMultiplexingPastTheCodecsLimitIsUnusable) {
   std::string text = "BO_ 1 Many: 8 N\n SG_ A M : 0|8@1+ (1,0) [0|0] \"\" N\n";
