@@ -158,6 +158,7 @@ class DbcParser {
   void check_message(ParsedMessage& parsed);
   void check_multiplexing(ParsedMessage& parsed);
   void check_extended_overlaps(ParsedMessage& parsed);
+  void warn_values_no_switch_holds(const DbcMessage& message);
 
   // Token helpers (those defined out of the class are in dbc_statements.cpp)
   const Token& peek(std::size_t ahead = 0) const {

@@ -300,9 +300,16 @@ void DbcParser::check_multiplexing(ParsedMessage& parsed) {
                                                            : std::to_string(kDbcMaxMuxRanges) + " multiplexer value ranges"));
     return;
   }
-  // Values a switch cannot hold select nothing (its raw integer: 0 up to 2^length - 1, or up to
-  // 2^(length - 1) - 1 when signed, negative ones matching no range): the message stays
-  // usable, the file's author is told once.
+  warn_values_no_switch_holds(parsed.message);
+  // A plain message's overlaps were found by its SG_ lines (plain_problems).
+  if (parsed.extended) check_extended_overlaps(parsed);
+}
+
+// Values a switch cannot hold select nothing (its raw integer: 0 up to 2^length - 1, or up to
+// 2^(length - 1) - 1 when signed, negative ones matching no range): the message stays usable,
+// the file's author is told once.
+void DbcParser::warn_values_no_switch_holds(const DbcMessage& message) {
+  const std::vector<DbcSignal>& signals = message.signals;
   for (const DbcSignal& signal : signals) {
     if (signal.mux_parent < 0) continue;
     const DbcSignal& multiplexer = signals[static_cast<std::size_t>(signal.mux_parent)];
@@ -321,8 +328,6 @@ void DbcParser::check_multiplexing(ParsedMessage& parsed) {
       break;
     }
   }
-  // A plain message's overlaps were found by its SG_ lines (plain_problems).
-  if (parsed.extended) check_extended_overlaps(parsed);
 }
 
 // Two signals may share bits only if no frame holds both: somewhere up their chains of
