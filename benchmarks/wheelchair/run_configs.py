@@ -3,9 +3,9 @@
 the vcan guest: scripts/bench_wheelchair.sh starts it). For each configuration it starts
 polyportd and the configuration's programs, waits until each says it runs, then runs the
 bus simulator for the scenario, stops everything and keeps what each wrote. With --repeat N
-the configurations run N times, interleaved (all of them, then all of them again), so that
-each repetition of one configuration has its neighbours' conditions; repetition K of a
-configuration writes
+the configurations run N times, interleaved (all of them, then all of them in reverse order,
+and so on), so that each repetition of one configuration has its neighbours' conditions and
+no configuration always runs first; repetition K of a configuration writes
 
   OUT/<config>/<K>/sim_trace.csv, sim.json     the simulator's trace and figures
   OUT/<config>/<K>/<process>.json              each program's summary
@@ -227,7 +227,10 @@ def main():
                 progress(f"repetition {k}/{args.repeat}")
                 failed += [f"{n} ({k})" for n in run_together(names, configurations, args, args.out, k)]
             continue
-        for i, n in enumerate(names, 1):
+        # Every other repetition runs the configurations in reverse order (A B C, C B A, ...):
+        # what drifts over the run then falls on each configuration alike, and each pair of
+        # neighbours swaps which of them runs first.
+        for i, n in enumerate(names if k % 2 else names[::-1], 1):
             progress(f"repetition {k}/{args.repeat}, configuration {i}/{len(names)}: {n}")
             if not run_config(n, configurations[n], args, folder_of(args.out, n, k)):
                 failed.append(f"{n} ({k})")
