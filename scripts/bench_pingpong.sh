@@ -3,7 +3,7 @@
 # ping/pong programs and polyportd) and runs it once, writing
 # benchmarks/results/<model>_pingpong-<UTC stamp>.json. Each runs direct, via polyportd and
 # via a native relay, and reports median and p99 per series, polyport's in-to-out time and the
-# CPU time per round trip (README.md, "Benchmarks").
+# CPU time per round trip (docs/BENCHMARKS.md).
 #
 #   scripts/bench_pingpong.sh dds|lcm|can [runner options]
 #     dds  both DDS vendors, 16 B and 1 KiB, unpinned and on one core (about three minutes on

@@ -2,8 +2,8 @@
 # The wake-lateness benchmark, run by hand (never a test): builds bench_wake_lateness and runs
 # it once, writing benchmarks/results/wake_lateness-<UTC stamp>.json. It measures wake -
 # deadline of a clock_nanosleep loop (timer slack 1 ns), of an ExecutionContext at its
-# defaults and of ExecutionContexts with spin tails, taking turns in chunks (README.md,
-# "Benchmarks"; benchmarks/bench_wake_lateness.cpp).
+# defaults and of ExecutionContexts with spin tails, taking turns in chunks (docs/BENCHMARKS.md,
+# "Jitter and load" and the wake-lateness runs before it; benchmarks/bench_wake_lateness.cpp).
 #
 #   scripts/bench_wake.sh [--periods N] [--chunks C] [--period-ms P[,P...]] [--spin-us S[,S...]] [--fifo PRIO]
 #     defaults: 1000 periods per case (10 s each at 10 ms), 10 chunks, 10 ms, spin 100,300 us,

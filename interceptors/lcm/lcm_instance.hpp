@@ -6,7 +6,7 @@
 // lcm_handle when a message is ready, so subscription handlers run on it. One thread for all
 // instances, as the SDK-only relay does: with one per instance polyport bridging two LCM
 // networks paid ≈ 5 µs more per message at the median than that relay, ≈ 2 µs with one
-// (README, Benchmarks, LCM and CAN ping-pong). publish() runs on whichever thread forwards a
+// (docs/BENCHMARKS.md, LCM and CAN ping-pong). publish() runs on whichever thread forwards a
 // sample (LCM serialises sends itself). Everything else runs on the control thread.
 #pragma once
 
