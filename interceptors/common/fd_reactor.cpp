@@ -390,8 +390,8 @@ struct FdReactor::Ring {
 
 #endif
 
-FdReactor::FdReactor(std::string thread_name, std::string what, ReactorIo io)
-    : thread_name_(std::move(thread_name)), what_(std::move(what)), io_(io) {}
+FdReactor::FdReactor(std::string thread_name, std::string what, ReactorIo io, std::chrono::milliseconds tick_interval)
+    : thread_name_(std::move(thread_name)), what_(std::move(what)), tick_interval_(tick_interval), io_(io) {}
 
 std::shared_ptr<FdReactor> FdReactor::create(std::string thread_name, std::string what, ReactorIo io) {
   return std::shared_ptr<FdReactor>(new FdReactor(std::move(thread_name), std::move(what), io));
@@ -607,7 +607,9 @@ Result<void> FdReactor::watch(Supervised& supervised) {
     const std::lock_guard lock(start_mutex_);
     if (!ticking_) {
       itimerspec period{};
-      period.it_interval.tv_nsec = std::chrono::nanoseconds(kTickInterval).count();
+      const auto seconds = std::chrono::duration_cast<std::chrono::seconds>(tick_interval_);
+      period.it_interval.tv_sec = static_cast<time_t>(seconds.count());
+      period.it_interval.tv_nsec = static_cast<long>(std::chrono::nanoseconds(tick_interval_ - seconds).count());
       period.it_value = period.it_interval;
       if (::timerfd_settime(timer_fd_, 0, &period, nullptr) != 0) {
         return make_error(std::string("timerfd_settime: ") + std::strerror(errno));

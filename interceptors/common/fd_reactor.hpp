@@ -20,8 +20,8 @@
 // SendTracker has no send in flight either). With the ring only the reactor thread touches the
 // submission queue: add() and remove() hand it the change (through the wake-up descriptor) and
 // wait until it is made.
-// The same thread can run a supervision tick: once something is watched, every kTickInterval
-// (a timerfd in the same set) it calls on_tick() of each watched Supervised, which may
+// The same thread can run a supervision tick: once something is watched, every tick interval
+// (kTickInterval unless the subclass sets another; a timerfd in the same set) it calls on_tick() of each watched Supervised, which may
 // re-create descriptors, log and report; the tick is not the forwarding path (it may allocate
 // and log) and never runs while a handler does, so both may write the same ports. watch() and
 // unwatch() run on the control thread; after unwatch() returns, on_tick is not running and is
@@ -106,7 +106,7 @@ class SendTracker {
 };
 
 // Checks and repairs what a handler cannot (an interface that went away), on the reactor
-// thread, every kTickInterval.
+// thread, every tick interval.
 class Supervised {
  public:
   virtual ~Supervised() = default;
@@ -163,14 +163,20 @@ class FdReactor {
   // {"asked": "SCHED_FIFO 70", "realtime": true, "pinned": false}; null when nothing was asked.
   nlohmann::json scheduling() const;
 
-  // Calls `supervised.on_tick()` every kTickInterval from now on; starts the thread and the
+  // Calls `supervised.on_tick()` every tick_interval() from now on; starts the thread and the
   // tick. Control thread.
+  std::chrono::milliseconds tick_interval() const noexcept { return tick_interval_; }
   Result<void> watch(Supervised& supervised);
   // Stops the ticks for it, waiting for one in progress. Control thread.
   void unwatch(Supervised& supervised) noexcept;
 
  protected:
-  FdReactor(std::string thread_name, std::string what, ReactorIo io = ReactorIo::epoll);
+  FdReactor(std::string thread_name, std::string what, ReactorIo io = ReactorIo::epoll,
+            std::chrono::milliseconds tick_interval = kTickInterval);
+  // Runs the supervision tick now (every watched Supervised's on_tick), from a handler on the
+  // reactor thread: a subclass's descriptor that announces a change the tick should act on at
+  // once rather than at its next interval (CanReactor: the kernel's link notifications).
+  void tick_now() noexcept { tick(); }
 
  private:
   struct Ring;  // the io_uring and what the thread keeps for it (fd_reactor.cpp)
@@ -201,6 +207,7 @@ class FdReactor {
 
   const std::string thread_name_;
   const std::string what_;
+  const std::chrono::milliseconds tick_interval_;
   int epoll_fd_ = -1;
   int wake_fd_ = -1;
   int timer_fd_ = -1;

@@ -1,14 +1,17 @@
 // The SocketCAN model's one receive thread for every CAN socket of the daemon (an FdReactor,
 // interceptors/common/fd_reactor.hpp, named pp-can-recv whichever way it waits), with the interface supervision as
-// its tick, and the loop-prevention state of each interface. The model hands it out; the
-// interceptors hold it; it goes with the last of them.
+// its tick, the kernel's link notifications that run the tick at once, and the loop-prevention
+// state of each interface. The model hands it out; the interceptors hold it; it goes with the
+// last of them.
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <cstring>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "fd_reactor.hpp"
@@ -51,7 +54,23 @@ class CanReactor final : public FdReactor {
  public:
   // `io`: how the thread waits (FdReactor): the SocketCAN model asks for io_uring where the
   // kernel gives it, so that a frame forwarded CAN -> CAN goes out with the thread's next wait.
-  static std::shared_ptr<CanReactor> create(ReactorIo io) { return std::shared_ptr<CanReactor>(new CanReactor(io)); }
+  // `check`: the supervision tick's interval (the interfaces looked up by name).
+  static std::shared_ptr<CanReactor> create(ReactorIo io, std::chrono::milliseconds check = kTickInterval) {
+    return std::shared_ptr<CanReactor>(new CanReactor(io, check));
+  }
+  ~CanReactor() override;
+
+  // Link notifications: a NETLINK_ROUTE socket in the RTMGRP_LINK group on the reactor, whose
+  // RTM_NEWLINK / RTM_DELLINK messages (an interface added, deleted, set up or down: an adapter
+  // plugged in, `ip link add`) run the supervision tick at once instead of at its next
+  // tick interval; the tick stays for what the socket may miss (a notification the kernel
+  // dropped: ENOBUFS runs the tick as well). Opened on the first call, later calls return
+  // its outcome. Control thread. An error (no netlink here) is warned about once and leaves the
+  // tick alone to find link changes.
+  Result<void> watch_links();
+  // Notifications that ran the tick (any thread).
+  std::uint64_t link_notifications() const noexcept { return links_.notifications.load(std::memory_order_relaxed); }
+  bool links_watched() const noexcept { return links_.watched.load(std::memory_order_acquire); }
 
   // The loop-prevention state of `interface`; lives as long as the reactor. Control thread.
   CanEchoes& echoes(const std::string& interface) {
@@ -61,8 +80,22 @@ class CanReactor final : public FdReactor {
   }
 
  private:
-  explicit CanReactor(ReactorIo io) : FdReactor("pp-can-recv", "the CAN receive thread", io) {}
+  // The netlink socket's handler, on the reactor thread.
+  struct Links final : ReadableHandler {
+    CanReactor* reactor;
+    int fd = -1;  // control thread, before the handler is added
+    std::atomic<bool> watched{false};
+    std::atomic<std::uint64_t> notifications{0};
+    explicit Links(CanReactor* r) : reactor(r) {}
+    void on_readable() noexcept override;
+  };
+
+  CanReactor(ReactorIo io, std::chrono::milliseconds check)
+      : FdReactor("pp-can-recv", "the CAN receive thread", io, check) {}
+  Result<void> open_links();
   std::map<std::string, std::unique_ptr<CanEchoes>> echoes_;  // control thread
+  Links links_{this};
+  std::optional<Result<void>> links_outcome_;  // control thread: watch_links()'s first outcome
 };
 
 }  // namespace polyport::socketcan

@@ -4,6 +4,8 @@
 #include <linux/can/bcm.h>
 #include <linux/can/error.h>
 #include <linux/can/raw.h>
+#include <linux/netlink.h>
+#include <linux/rtnetlink.h>
 #include <net/if.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
@@ -179,6 +181,77 @@ void SocketCanInterceptor::FrameWriter::unschedule() noexcept {
   head.can_id = message_.can_id;
   (void)::write(bcm_fd_.load(std::memory_order_acquire), &head, sizeof head);
 }
+
+// ---- CanReactor: link notifications ----------------------------------------------------------
+
+CanReactor::~CanReactor() {
+  if (links_.fd >= 0) {
+    remove(links_.fd);  // the handler is not running, and is not called again
+    ::close(links_.fd);
+  }
+}
+
+Result<void> CanReactor::watch_links() {
+  if (links_outcome_) return *links_outcome_;
+  links_outcome_ = open_links();
+  if (!*links_outcome_) {
+    spdlog::warn("SocketCAN: no link notifications from the kernel ({}): interface changes are found by the "
+                 "check every {} ms",
+                 links_outcome_->error().message, tick_interval().count());
+  }
+  return *links_outcome_;
+}
+
+Result<void> CanReactor::open_links() {
+  const int fd = ::socket(AF_NETLINK, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, NETLINK_ROUTE);
+  if (fd < 0) return make_error(std::string("netlink socket: ") + std::strerror(errno));
+  sockaddr_nl address{};
+  address.nl_family = AF_NETLINK;
+  address.nl_groups = RTMGRP_LINK;
+  if (::bind(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) {
+    const int error = errno;
+    ::close(fd);
+    return make_error(std::string("netlink bind to RTMGRP_LINK: ") + std::strerror(error));
+  }
+  links_.fd = fd;  // before add(): the handler reads it on the reactor thread
+  if (auto added = add(fd, links_); !added) {
+    links_.fd = -1;
+    ::close(fd);
+    return added;
+  }
+  links_.watched.store(true, std::memory_order_release);
+  return {};
+}
+
+void CanReactor::Links::on_readable() noexcept {
+  // Reads every queued notification; a link added or deleted, or its flags changed, runs the
+  // tick once for all of them. ENOBUFS: the kernel dropped some (the socket's buffer was full),
+  // so something may have changed.
+  alignas(nlmsghdr) char buffer[8192];
+  bool changed = false;
+  for (;;) {
+    const ssize_t n = ::recv(fd, buffer, sizeof buffer, MSG_DONTWAIT);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      if (errno == ENOBUFS) {
+        changed = true;
+        continue;
+      }
+      break;  // EAGAIN: all read
+    }
+    if (n == 0) break;
+    int left = static_cast<int>(n);
+    for (auto* header = reinterpret_cast<const nlmsghdr*>(buffer); NLMSG_OK(header, left);
+         header = NLMSG_NEXT(header, left)) {
+      changed = changed || header->nlmsg_type == RTM_NEWLINK || header->nlmsg_type == RTM_DELLINK;
+    }
+  }
+  if (!changed) return;
+  notifications.fetch_add(1, std::memory_order_relaxed);
+  reactor->tick_now();
+}
+
+// ---- SocketCanInterceptor -------------------------------------------------------------------
 
 SocketCanInterceptor::SocketCanInterceptor(SocketCanAdaptor& adaptor, std::shared_ptr<CanReactor> reactor)
     : adaptor_(adaptor), reactor_(std::move(reactor)), echoes_(reactor_->echoes(adaptor_.settings().interface)) {
@@ -362,9 +435,9 @@ Result<void> SocketCanInterceptor::start() {
       }
     } else {
       spdlog::error("{} does not exist; the component runs without it and picks it up when it appears "
-                    "(checked every {} ms): for a CAN controller, e.g. `ip link set {} up type can bitrate "
+                    "(on the kernel's link notification, and checked every {} ms): for a CAN controller, e.g. `ip link set {} up type can bitrate "
                     "500000`; for a virtual bus, `ip link add dev {} type vcan && ip link set {} up`",
-                    where(), CanReactor::kTickInterval.count(), name, name, name);
+                    where(), reactor_->tick_interval().count(), name, name, name);
       link_.store(static_cast<int>(Link::missing), std::memory_order_relaxed);
       emit(CanBusEventKind::interface_missing, CanBusState::missing, mono_now());
     }
@@ -384,6 +457,7 @@ Result<void> SocketCanInterceptor::start() {
     stop();
     return make_error(adaptor_.name() + ": " + watched.error().message);
   }
+  (void)reactor_->watch_links();  // without them (warned once), the tick alone finds link changes
   active_ = true;
   return {};
 }
@@ -546,7 +620,7 @@ void SocketCanInterceptor::on_frame(const canfd_frame& frame, unsigned size, con
 void SocketCanInterceptor::on_tick() noexcept {
   try {
     const std::string& name = adaptor_.settings().interface;
-    const auto retry_ms = CanReactor::kTickInterval.count();
+    const auto retry_ms = reactor_->tick_interval().count();
     int ifindex = 0;
     bool up = false;
     const bool exists = interface_flags(ifindex, up);
@@ -558,7 +632,7 @@ void SocketCanInterceptor::on_tick() noexcept {
       losses_.fetch_add(1, std::memory_order_release);  // after the state it counts
       last_attach_error_.clear();
       spdlog::error("{} went away (deleted or re-created): no frames are received or sent until it is back; "
-                    "retrying every {} ms",
+                    "picked up again on the kernel's link notification or within {} ms",
                     where(), retry_ms);
       emit(CanBusEventKind::interface_missing, CanBusState::missing, mono_now());
     }
@@ -671,6 +745,11 @@ void SocketCanInterceptor::describe(nlohmann::json& out) const {
                       {"went_down", went_down_.load(std::memory_order_acquire)},
                       {"came_up", came_up_.load(std::memory_order_acquire)},
                       {"attach_failures", attach_failures_.load(std::memory_order_relaxed)},
+                      // Link changes the kernel announced (for any interface), each running the
+                      // supervision at once; null where it announces none (netlink refused).
+                      {"link_notifications", reactor_->links_watched()
+                                                 ? nlohmann::json(reactor_->link_notifications())
+                                                 : nlohmann::json()},
                       {"bus",
                        {{"state", kBusStateNames[bus_state_.load(std::memory_order_relaxed)]},
                         {"error_frames", error_frames_.load(std::memory_order_relaxed)},

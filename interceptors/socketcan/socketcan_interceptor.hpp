@@ -31,7 +31,8 @@
 //    re-created BCM socket.
 //  - error frames: decoded on the reactor thread into atomics (bus state, counters per
 //    kind and class) and written as a CanBusEvent to the optional event port.
-//  - supervision: on_tick runs on the reactor thread every CanReactor::kTickInterval. It
+//  - supervision: on_tick runs on the reactor thread every tick interval (500 ms) and at once on
+//    a link notification of the kernel (CanReactor::watch_links). It
 //    asks the kernel for the interface's index and flags; when the interface it was bound
 //    to is gone (deleted, or re-added under a new index, or a read saw ENODEV) or was missing
 //    at start, it re-creates both sockets with their options, binds / connects them and

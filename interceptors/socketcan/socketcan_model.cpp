@@ -11,7 +11,7 @@ std::optional<Proxy> SocketCanModel::create_proxy(const Subcomponent& sub, Model
   if (!adaptor) return std::nullopt;
   std::shared_ptr<CanReactor> reactor = reactor_.lock();
   if (!reactor) {
-    reactor = CanReactor::create(io_);
+    reactor = CanReactor::create(io_, check_);
     reactor_ = reactor;
   }
   if (adaptor->settings().receive_thread) reactor->want(*adaptor->settings().receive_thread);

@@ -4,6 +4,7 @@
 // interceptors hold it; it goes with the last of them).
 #pragma once
 
+#include <chrono>
 #include <memory>
 
 #include "can_reactor.hpp"
@@ -14,8 +15,12 @@ namespace polyport::socketcan {
 
 class SocketCanModel final : public Model {
  public:
-  // `io`: how the CAN receive thread waits (polyportd --can-io; FdReactor).
-  explicit SocketCanModel(ReactorIo io = ReactorIo::automatic) : io_(io) {}
+  // `io`: how the CAN receive thread waits (polyportd --can-io; FdReactor). `check`: how often
+  // the supervision looks the interfaces up besides the kernel's link notifications (tests
+  // lengthen it to show that the notifications alone find a change).
+  explicit SocketCanModel(ReactorIo io = ReactorIo::automatic,
+                          std::chrono::milliseconds check = CanReactor::kTickInterval)
+      : io_(io), check_(check) {}
   std::string_view name() const noexcept override { return "socketcan"; }
   const ModelSection* profile_section() const noexcept override { return &section_; }
   std::optional<Proxy> create_proxy(const Subcomponent& subcomponent, ModelContext& context,
@@ -23,6 +28,7 @@ class SocketCanModel final : public Model {
 
  private:
   ReactorIo io_;
+  std::chrono::milliseconds check_;
   SocketCanSection section_;
   std::weak_ptr<CanReactor> reactor_;
 };

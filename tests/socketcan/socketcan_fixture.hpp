@@ -27,9 +27,12 @@ class SocketCanFixture : public EngineFixture {
  protected:
   // `io`: how the model's CAN thread waits (the daemon's default, automatic, is io_uring in
   // the guest; SocketCanIoFixture runs a case both ways).
-  explicit SocketCanFixture(ReactorIo io = ReactorIo::automatic)
+  // `check`: the interval of the model's own look-up of the interfaces (the kernel's link
+  // notifications run it at once besides).
+  explicit SocketCanFixture(ReactorIo io = ReactorIo::automatic,
+                            std::chrono::milliseconds check = socketcan::CanReactor::kTickInterval)
       : EngineFixture(POLYPORT_TEST_DATA "/socketcan", LoadOptions{}) {
-    models.add(std::make_unique<socketcan::SocketCanModel>(io));
+    models.add(std::make_unique<socketcan::SocketCanModel>(io, check));
   }
 
   void start() {

@@ -2,7 +2,8 @@
 // can-utils and iproute2 on real kernel vcan interfaces (label vm: each case in a guest of
 // its own with vcan0 and vcan1, which the case may delete and re-create):
 //  - an interface missing at start, or deleted and re-added while the engine runs: reported
-//    (describe() counters, a log line, an event on the bus event port) and picked up again;
+//    (describe() counters, a log line, an event on the bus event port) and picked up again,
+//    also by the kernel's link notifications alone (the model's own check an hour apart);
 //  - error frames (cansend with CAN_ERR_FLAG in the id): decoded, counted per kind and
 //    class, logged, and delivered as polyport::CanBusEvent samples;
 //  - periodic messages through the broadcast manager: the interval between the frames
@@ -46,7 +47,8 @@ constexpr const char* kEngineFrame = "100#A00F78C8307D0100";
 // The log lines of the model, kept in memory for the test to read.
 class SocketCanRobustTest : public test::SocketCanFixture {
  protected:
-  SocketCanRobustTest() {
+  explicit SocketCanRobustTest(std::chrono::milliseconds check = socketcan::CanReactor::kTickInterval)
+      : SocketCanFixture(ReactorIo::automatic, check) {
     sink_ = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(256);
     previous_ = spdlog::default_logger();
     spdlog::set_default_logger(std::make_shared<spdlog::logger>("test", sink_));
@@ -96,6 +98,12 @@ TEST_F(SocketCanRobustTest, AMissingInterfaceIsReportedAndPickedUpWhenItAppears)
       << socket_counters("lost").dump(2);
   ASSERT_TRUE(next_event(*events, event)) << "no event for the interface's arrival";
   EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_back));
+  // add_vcan adds the interface, then sets it up: the kernel announces both, and the model
+  // may look while it is still down (back, down; then up) or only once it is up.
+  if (event.state == static_cast<int>(CanBusState::down)) {
+    ASSERT_TRUE(next_event(*events, event)) << "no event for the interface going up";
+    EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_up));
+  }
   EXPECT_EQ(event.state, static_cast<int>(CanBusState::active));
   EXPECT_TRUE(logged("lost: CAN interface 'vcan7' is back")) << log();
 
@@ -165,6 +173,58 @@ TEST_F(SocketCanRobustTest, SettingTheInterfaceDownAndUpIsReported) {
   ASSERT_TRUE(next_event(*events, event));
   EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_up));
   EXPECT_TRUE(logged("bus0: CAN interface 'vcan0' is down")) << log();
+}
+
+// The model's own look-up of the interfaces an hour apart: within the test's deadline only the
+// kernel's link notifications (CanReactor::watch_links) can run the supervision.
+class SocketCanLinkNotificationTest : public SocketCanRobustTest {
+ protected:
+  SocketCanLinkNotificationTest() : SocketCanRobustTest(std::chrono::hours(1)) {}
+};
+
+TEST_F(SocketCanLinkNotificationTest, DownUpDeletedAndReAddedAreFoundByTheKernelsNotifications) {
+  ASSERT_TRUE(build("events_app.xml")) << problems();
+  DataInPort* engine_probe = probe("bus0.engine");
+  DataInPort* events = probe("bus0.bus");
+  ASSERT_TRUE(engine_probe && events);
+  start();
+  const nlohmann::json at_start = socket_counters("bus0");
+  ASSERT_TRUE(at_start["link_notifications"].is_number())
+      << "the kernel gives no link notifications here: " << at_start.dump(2) << "\n" << log();
+  const auto notifications = [&] { return socket_counters("bus0")["link_notifications"].get<std::uint64_t>(); };
+  const std::uint64_t before = notifications();
+
+  ASSERT_EQ(run_command({"ip", "link", "set", "vcan0", "down"}), "");
+  ASSERT_TRUE(eventually([&] { return socket_counters("bus0")["went_down"] == 1; }, kDeadline))
+      << socket_counters("bus0").dump(2);
+  CanBusEventSample event;
+  ASSERT_TRUE(next_event(*events, event)) << "no event for down";
+  EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_down));
+  ASSERT_EQ(run_command({"ip", "link", "set", "vcan0", "up"}), "");
+  ASSERT_TRUE(eventually([&] { return socket_counters("bus0")["came_up"] == 1; }, kDeadline))
+      << socket_counters("bus0").dump(2);
+  ASSERT_TRUE(next_event(*events, event)) << "no event for up";
+  EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_up));
+
+  ASSERT_EQ(run_command({"ip", "link", "del", "vcan0"}), "");
+  ASSERT_TRUE(eventually([&] { return socket_counters("bus0")["losses"] == 1; }, kDeadline))
+      << socket_counters("bus0").dump(2);
+  ASSERT_TRUE(next_event(*events, event)) << "no event for the loss";
+  EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_missing));
+  ASSERT_EQ(add_vcan("vcan0"), "");
+  ASSERT_TRUE(eventually([&] { return socket_counters("bus0")["recoveries"] == 1; }, kDeadline))
+      << socket_counters("bus0").dump(2);
+  ASSERT_TRUE(next_event(*events, event)) << "no event for the return";
+  EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_back));
+  // Each of the four steps was found through at least one notification of its own (each
+  // waited for before the next).
+  EXPECT_GE(notifications(), before + 4);
+  EXPECT_TRUE(logged("bus0: CAN interface 'vcan0' is back")) << log();
+
+  ASSERT_EQ(cansend("vcan0", kEngineFrame), "");
+  std::vector<double> values(6);
+  ASSERT_TRUE(next_sample(*engine_probe, values)) << "no EngineData after vcan0 came back";
+  EXPECT_DOUBLE_EQ(values[0], 1000.0);
 }
 
 // Error frames as a controller driver sends them; vcan delivers a frame with CAN_ERR_FLAG
