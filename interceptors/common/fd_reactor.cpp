@@ -391,7 +391,10 @@ struct FdReactor::Ring {
 #endif
 
 FdReactor::FdReactor(std::string thread_name, std::string what, ReactorIo io, std::chrono::milliseconds tick_interval)
-    : thread_name_(std::move(thread_name)), what_(std::move(what)), tick_interval_(tick_interval), io_(io) {}
+    : thread_name_(std::move(thread_name)),
+      what_(std::move(what)),
+      tick_interval_(tick_interval.count() > 0 ? tick_interval : kTickInterval),  // 0 would disarm the timer
+      io_(io) {}
 
 std::shared_ptr<FdReactor> FdReactor::create(std::string thread_name, std::string what, ReactorIo io) {
   return std::shared_ptr<FdReactor>(new FdReactor(std::move(thread_name), std::move(what), io));

@@ -21,11 +21,12 @@
 // submission queue: add() and remove() hand it the change (through the wake-up descriptor) and
 // wait until it is made.
 // The same thread can run a supervision tick: once something is watched, every tick interval
-// (kTickInterval unless the subclass sets another; a timerfd in the same set) it calls on_tick() of each watched Supervised, which may
-// re-create descriptors, log and report; the tick is not the forwarding path (it may allocate
-// and log) and never runs while a handler does, so both may write the same ports. watch() and
-// unwatch() run on the control thread; after unwatch() returns, on_tick is not running and is
-// not called again.
+// (kTickInterval unless the subclass sets another, which must be positive: zero or less means
+// kTickInterval; a timerfd in the same set) it calls on_tick() of each watched Supervised,
+// which may re-create descriptors, log and report; the tick is not the forwarding path (it
+// may allocate and log) and never runs concurrently with a handler (tick_now() runs it from
+// one, on the same thread), so both may write the same ports. watch() and unwatch() run on the
+// control thread; after unwatch() returns, on_tick is not running and is not called again.
 #pragma once
 
 #include <atomic>
@@ -176,6 +177,7 @@ class FdReactor {
   // Runs the supervision tick now (every watched Supervised's on_tick), from a handler on the
   // reactor thread: a subclass's descriptor that announces a change the tick should act on at
   // once rather than at its next interval (CanReactor: the kernel's link notifications).
+  // It takes a timer expiration that is due, so the periodic tick then skips that one.
   void tick_now() noexcept { tick(); }
 
  private:

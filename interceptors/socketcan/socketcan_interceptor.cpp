@@ -4,7 +4,6 @@
 #include <linux/can/bcm.h>
 #include <linux/can/error.h>
 #include <linux/can/raw.h>
-#include <linux/netlink.h>
 #include <linux/rtnetlink.h>
 #include <net/if.h>
 #include <sys/ioctl.h>
@@ -224,9 +223,10 @@ Result<void> CanReactor::open_links() {
 }
 
 void CanReactor::Links::on_readable() noexcept {
-  // Reads every queued notification; a link added or deleted, or its flags changed, runs the
-  // tick once for all of them. ENOBUFS: the kernel dropped some (the socket's buffer was full),
-  // so something may have changed.
+  // Reads every queued notification and runs the tick once for all of them. The socket is in
+  // RTMGRP_LINK alone, so every message is an RTM_NEWLINK or RTM_DELLINK (a link added or
+  // deleted, its flags changed): any one is a change, whole or cut short by the buffer.
+  // ENOBUFS: the kernel dropped some (the socket's buffer was full), so something may have.
   alignas(nlmsghdr) char buffer[8192];
   bool changed = false;
   for (;;) {
@@ -240,11 +240,7 @@ void CanReactor::Links::on_readable() noexcept {
       break;  // EAGAIN: all read
     }
     if (n == 0) break;
-    int left = static_cast<int>(n);
-    for (auto* header = reinterpret_cast<const nlmsghdr*>(buffer); NLMSG_OK(header, left);
-         header = NLMSG_NEXT(header, left)) {
-      changed = changed || header->nlmsg_type == RTM_NEWLINK || header->nlmsg_type == RTM_DELLINK;
-    }
+    changed = true;
   }
   if (!changed) return;
   notifications.fetch_add(1, std::memory_order_relaxed);
@@ -435,7 +431,7 @@ Result<void> SocketCanInterceptor::start() {
       }
     } else {
       spdlog::error("{} does not exist; the component runs without it and picks it up when it appears "
-                    "(on the kernel's link notification, and checked every {} ms): for a CAN controller, e.g. `ip link set {} up type can bitrate "
+                    "(checked every {} ms, and on the kernel's link notifications): for a CAN controller, e.g. `ip link set {} up type can bitrate "
                     "500000`; for a virtual bus, `ip link add dev {} type vcan && ip link set {} up`",
                     where(), reactor_->tick_interval().count(), name, name, name);
       link_.store(static_cast<int>(Link::missing), std::memory_order_relaxed);
