@@ -431,8 +431,9 @@ Result<void> SocketCanInterceptor::start() {
       }
     } else {
       spdlog::error("{} does not exist; the component runs without it and picks it up when it appears "
-                    "(checked every {} ms, and on the kernel's link notifications): for a CAN controller, e.g. `ip link set {} up type can bitrate "
-                    "500000`; for a virtual bus, `ip link add dev {} type vcan && ip link set {} up`",
+                    "(checked every {} ms, and on the kernel's link notifications): for a CAN controller, "
+                    "e.g. `ip link set {} up type can bitrate 500000`; for a virtual bus, "
+                    "`ip link add dev {} type vcan && ip link set {} up`",
                     where(), reactor_->tick_interval().count(), name, name, name);
       link_.store(static_cast<int>(Link::missing), std::memory_order_relaxed);
       emit(CanBusEventKind::interface_missing, CanBusState::missing, mono_now());
