@@ -83,6 +83,25 @@ def run(bin_dir, where):
                 problems.append(f"{name}: the chair did not drive (left + right {speed:.3f} rad/s at the end)")
             if turn <= 0.1:
                 problems.append(f"{name}: the chair did not turn right (left - right {turn:.3f} rad/s at the end)")
+        # A compared pair reads one clock: the native program's arrival stamps and polyportd's
+        # stamps (the TSC in the guest, where clock_gettime is a system call of ~15 us that
+        # would otherwise lie inside the native side's figure only).
+        for name, config in configurations(where).items():
+            native = config.get("compare_with")
+            if not native:
+                continue
+            process = configurations()[native]["joystick_to_control"].get("process")
+            try:
+                with open(os.path.join(out, native, "1", process + ".json")) as f:
+                    native_clock = json.load(f).get("arrival_clock")
+                with open(os.path.join(out, name, "1", "polyportd.json")) as f:
+                    bridge_clock = json.load(f)["clock"]["source"]
+            except (OSError, ValueError, KeyError, TypeError) as e:
+                problems.append(f"{name}: the clocks of the comparison with {native} are not in its files ({e!r})")
+                continue
+            if native_clock != bridge_clock:
+                problems.append(f"{name}: polyportd stamps with the {bridge_clock} clock, {native}'s {process} "
+                                f"program with {native_clock}")
         results = os.path.join(out, "results")
         r = subprocess.run(["/usr/bin/python3", os.path.join(SUITE, "report.py"), out, "--results", results, "--no-plots"],
                            capture_output=True, text=True)

@@ -17,7 +17,9 @@
 //   joystick  each period: newest wheelchair/joystick -> joystick_to_reference ->
 //             wheelchair/reference.
 //   control   a listener takes wheelchair/reference as samples arrive (logging now minus their
-//             source timestamp, CLOCK_REALTIME as Cyclone stamps); each period:
+//             source timestamp, CLOCK_REALTIME as Cyclone stamps, read with polyport's clock as
+//             polyportd reads it: from the TSC where clock_gettime is a system call, as in the
+//             vcan guest, so that native B and polyportd measure the same hop alike); each period:
 //             SpeedRatioController::step(latest reference, newest wheelchair/wheel_speeds)
 //             -> wheelchair/voltages; zero voltages once at exit.
 // Before the first sample of an input a role uses the type's zero value (stick centred, wheels
@@ -25,7 +27,8 @@
 // Cyclone's configuration comes from CYCLONEDDS_URI. On stderr: one line
 // "wheelchair_dds_node ROLE: running" once the entities exist. At exit (SIGINT/SIGTERM),
 // --summary FILE gets one JSON object: role, period_ms, periods, overruns, lateness_ns (the
-// wake lateness of every period), cpu_s; control adds joystick_to_control_ns; hw adds
+// wake lateness of every period), cpu_s; control adds joystick_to_control_ns and
+// arrival_clock ("tsc" or "system": the clock of its arrival stamps); hw adds
 // frames_rx (frames read from the socket), bad_frames (of those, the ones of a wrong length,
 // dropped), frames_tx, rx_errors and tx_errors (failed socket calls).
 // Exit status: 0 stopped by a signal; 1 setup failed or the summary could not be written
@@ -50,6 +53,7 @@
 
 #include "dds/dds.h"
 #include "node_common.hpp"
+#include "polyport/base/clock.hpp"
 #include "wheelchair.h"
 
 namespace {
@@ -216,7 +220,7 @@ void on_reference(dds_entity_t reader, void* arg) {
   for (;;) {
     const dds_return_t n = dds_take(reader, pointers, infos, kTakeBatch, kTakeBatch);
     if (n <= 0) return;
-    const std::int64_t now = wc::now_ns(CLOCK_REALTIME);
+    const std::int64_t now = polyport::wall_now().ns;
     const wheelchair_Reference* newest = nullptr;
     for (dds_return_t i = 0; i < n; ++i) {
       if (!infos[i].valid_data) continue;
@@ -232,6 +236,9 @@ void on_reference(dds_entity_t reader, void* arg) {
 }
 
 int run_control(const Options& options) {
+  // The arrival stamps' clock, chosen as polyportd chooses its own (--clock auto).
+  const polyport::Result<polyport::ClockInfo> clock = polyport::use_clock(polyport::ClockChoice::automatic);
+  const bool tsc = clock && clock.value().tsc;
   ControlInput input;
   Dds dds(options.domain);
   dds_listener_t* listener = dds_create_listener(&input);
@@ -266,7 +273,9 @@ int run_control(const Options& options) {
   dds_write(voltages_out, &zero);
   dds_wait_for_acks(voltages_out, DDS_MSECS(200));
   dds.close();
-  return write_summary(options, stats, R"(,"joystick_to_control_ns":)" + input.latency_ns.summary_json())
+  return write_summary(options, stats,
+                       R"(,"joystick_to_control_ns":)" + input.latency_ns.summary_json() +
+                           R"(,"arrival_clock":")" + (tsc ? "tsc" : "system") + "\"")
              ? kExitOk
              : kExitFailed;
 }
