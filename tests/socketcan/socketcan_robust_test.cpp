@@ -78,6 +78,19 @@ class SocketCanRobustTest : public test::SocketCanFixture {
     if (event.kind == static_cast<int>(CanBusEventKind::interface_down)) return next_event(probe, event);
     return true;
   }
+  // After a command on bus0's interface (`failed`: its output, empty when it worked): the
+  // model counts the change (bus0's `counter` reaches 1) and reports it on `events` as `kind`
+  // (past an interface_down first, with `past_down`: see next_event_past_down).
+  void expect_found(const std::string& failed, const char* counter, CanBusEventKind kind, DataInPort& events,
+                    bool past_down = false) {
+    ASSERT_EQ(failed, "");
+    ASSERT_TRUE(eventually([&] { return socket_counters("bus0")[counter] == 1; }, kDeadline))
+        << socket_counters("bus0").dump(2);
+    CanBusEventSample event;
+    ASSERT_TRUE(past_down ? next_event_past_down(events, event) : next_event(events, event))
+        << "no event once " << counter << " was counted";
+    EXPECT_EQ(event.kind, static_cast<int>(kind));
+  }
 
   std::shared_ptr<spdlog::sinks::ringbuffer_sink_mt> sink_;
   std::shared_ptr<spdlog::logger> previous_;
@@ -135,25 +148,17 @@ TEST_F(SocketCanRobustTest, DeletingAndReAddingTheInterfaceIsSurvivedAndReported
   ASSERT_TRUE(next_sample(*engine_probe, values)) << "no EngineData within 5 s";
   const int first_index = socket_counters("bus0")["ifindex"];
 
-  ASSERT_EQ(run_command({"ip", "link", "del", "vcan0"}), "");
-  ASSERT_TRUE(eventually([&] { return socket_counters("bus0")["losses"] == 1; }, kDeadline))
-      << socket_counters("bus0").dump(2);
+  ASSERT_NO_FATAL_FAILURE(expect_found(run_command({"ip", "link", "del", "vcan0"}), "losses",
+                                       CanBusEventKind::interface_missing, *events, true));
   EXPECT_EQ(socket_counters("bus0")["link"], "missing");
-  CanBusEventSample event;
-  ASSERT_TRUE(next_event_past_down(*events, event)) << "no event for the loss";
-  EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_missing));
   EXPECT_TRUE(logged("bus0: CAN interface 'vcan0' went away")) << log();
 
-  ASSERT_EQ(add_vcan("vcan0"), "");
-  ASSERT_TRUE(eventually([&] { return socket_counters("bus0")["recoveries"] == 1; }, kDeadline))
-      << socket_counters("bus0").dump(2);
+  ASSERT_NO_FATAL_FAILURE(
+      expect_found(add_vcan("vcan0"), "recoveries", CanBusEventKind::interface_back, *events));
   // Added, then set up: the model may have found it back while still down.
   ASSERT_TRUE(eventually([&] { return socket_counters("bus0")["link"] == "up"; }, kDeadline))
       << socket_counters("bus0").dump(2);
-  const nlohmann::json socket = socket_counters("bus0");
-  EXPECT_NE(socket["ifindex"], first_index) << "the new vcan0 is another interface";
-  ASSERT_TRUE(next_event(*events, event)) << "no event for the return";
-  EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_back));
+  EXPECT_NE(socket_counters("bus0")["ifindex"], first_index) << "the new vcan0 is another interface";
   EXPECT_TRUE(logged("bus0: CAN interface 'vcan0' is back")) << log();
 
   // Frames flow again, through the filters set again: an id the component does not take,
@@ -171,18 +176,11 @@ TEST_F(SocketCanRobustTest, SettingTheInterfaceDownAndUpIsReported) {
   DataInPort* events = probe("bus0.bus");
   ASSERT_TRUE(events);
   start();
-  ASSERT_EQ(run_command({"ip", "link", "set", "vcan0", "down"}), "");
-  ASSERT_TRUE(eventually([&] { return socket_counters("bus0")["went_down"] == 1; }, kDeadline))
-      << socket_counters("bus0").dump(2);
+  ASSERT_NO_FATAL_FAILURE(expect_found(run_command({"ip", "link", "set", "vcan0", "down"}), "went_down",
+                                       CanBusEventKind::interface_down, *events));
   EXPECT_EQ(socket_counters("bus0")["link"], "down");
-  CanBusEventSample event;
-  ASSERT_TRUE(next_event(*events, event));
-  EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_down));
-  ASSERT_EQ(run_command({"ip", "link", "set", "vcan0", "up"}), "");
-  ASSERT_TRUE(eventually([&] { return socket_counters("bus0")["came_up"] == 1; }, kDeadline))
-      << socket_counters("bus0").dump(2);
-  ASSERT_TRUE(next_event(*events, event));
-  EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_up));
+  ASSERT_NO_FATAL_FAILURE(expect_found(run_command({"ip", "link", "set", "vcan0", "up"}), "came_up",
+                                       CanBusEventKind::interface_up, *events));
   EXPECT_TRUE(logged("bus0: CAN interface 'vcan0' is down")) << log();
 }
 
@@ -207,28 +205,14 @@ TEST_P(SocketCanLinkNotificationTest, DownUpDeletedAndReAddedAreFoundByTheKernel
   const auto notifications = [&] { return socket_counters("bus0")["link_notifications"].get<std::uint64_t>(); };
   const std::uint64_t before = notifications();
 
-  ASSERT_EQ(run_command({"ip", "link", "set", "vcan0", "down"}), "");
-  ASSERT_TRUE(eventually([&] { return socket_counters("bus0")["went_down"] == 1; }, kDeadline))
-      << socket_counters("bus0").dump(2);
-  CanBusEventSample event;
-  ASSERT_TRUE(next_event(*events, event)) << "no event for down";
-  EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_down));
-  ASSERT_EQ(run_command({"ip", "link", "set", "vcan0", "up"}), "");
-  ASSERT_TRUE(eventually([&] { return socket_counters("bus0")["came_up"] == 1; }, kDeadline))
-      << socket_counters("bus0").dump(2);
-  ASSERT_TRUE(next_event(*events, event)) << "no event for up";
-  EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_up));
-
-  ASSERT_EQ(run_command({"ip", "link", "del", "vcan0"}), "");
-  ASSERT_TRUE(eventually([&] { return socket_counters("bus0")["losses"] == 1; }, kDeadline))
-      << socket_counters("bus0").dump(2);
-  ASSERT_TRUE(next_event_past_down(*events, event)) << "no event for the loss";
-  EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_missing));
-  ASSERT_EQ(add_vcan("vcan0"), "");
-  ASSERT_TRUE(eventually([&] { return socket_counters("bus0")["recoveries"] == 1; }, kDeadline))
-      << socket_counters("bus0").dump(2);
-  ASSERT_TRUE(next_event(*events, event)) << "no event for the return";
-  EXPECT_EQ(event.kind, static_cast<int>(CanBusEventKind::interface_back));
+  ASSERT_NO_FATAL_FAILURE(expect_found(run_command({"ip", "link", "set", "vcan0", "down"}), "went_down",
+                                       CanBusEventKind::interface_down, *events));
+  ASSERT_NO_FATAL_FAILURE(expect_found(run_command({"ip", "link", "set", "vcan0", "up"}), "came_up",
+                                       CanBusEventKind::interface_up, *events));
+  ASSERT_NO_FATAL_FAILURE(expect_found(run_command({"ip", "link", "del", "vcan0"}), "losses",
+                                       CanBusEventKind::interface_missing, *events, true));
+  ASSERT_NO_FATAL_FAILURE(
+      expect_found(add_vcan("vcan0"), "recoveries", CanBusEventKind::interface_back, *events));
   // Each of the four steps was found through at least one notification of its own (each
   // waited for before the next).
   EXPECT_GE(notifications(), before + 4);
