@@ -155,9 +155,29 @@ def figures(folder, config, run, name):
         "cpu_s": cpu,
         "cpu_us_per_period": {k: (v * 1e6 / periods if v is not None and periods else None) for k, v in cpu.items()},
         "polyport_hops": hops,
+        "threads": load_json(os.path.join(folder, "threads.json")),
+        "per_period": per_period(load_json(os.path.join(folder, "threads.json")), periods),
         "simulator": sim,
         "trace_periods": len(trace),
     }, trace
+
+
+def per_period(threads, periods):
+    """Per process, its threads' figures over the scenario summed and divided by the periods
+    (wakes: voluntary context switches; wait_us: time runnable but waiting for the CPU)."""
+    if not threads or not periods:
+        return None
+    out = {}
+    for process, rows in threads.items():
+        total = lambda key: sum(r.get(key, 0) for r in rows)
+        out[process] = {"threads": len(rows),
+                        "wakes": total("voluntary_switches") / periods,
+                        "preemptions": total("nonvoluntary_switches") / periods,
+                        "minor_faults": total("minor_faults") / periods,
+                        "run_us": total("run_ns") / 1e3 / periods,
+                        "wait_us": total("wait_ns") / 1e3 / periods,
+                        "slices": total("slices") / periods}
+    return out
 
 
 def mean_of(stats):

@@ -11,6 +11,7 @@ no configuration always runs first; repetition K of a configuration writes
   OUT/<config>/<K>/<process>.json              each program's summary
   OUT/<config>/<K>/polyportd.json              polyportd's statistics (--stats-json)
   OUT/<config>/<K>/cpu.json                    CPU seconds of every process (from /proc)
+  OUT/<config>/<K>/threads.json                every thread's figures over the scenario (/proc)
   OUT/<config>/<K>/*.log                       their stderr
 
 Every periodic loop runs on a grid of CLOCK_MONOTONIC at the phase the configuration gives
@@ -43,6 +44,56 @@ def cpu_seconds(pid):
         return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS
     except (OSError, IndexError, ValueError):
         return None
+
+
+def thread_figures(pid):
+    """Every thread of a live process, by thread id: its name, CPU seconds, page faults,
+    context switches and (where the kernel keeps them) scheduler figures: time run, time
+    waited runnable for a CPU, and the number of times it was put on one (schedstat)."""
+    threads = {}
+    try:
+        tids = os.listdir(f"/proc/{pid}/task")
+    except OSError:
+        return threads
+    for tid in tids:
+        task = f"/proc/{pid}/task/{tid}"
+        try:
+            with open(f"{task}/stat") as f:
+                head, tail = f.read().rsplit(")", 1)
+            fields = tail.split()
+            figures = {"name": head.split("(", 1)[1],
+                       "cpu_s": (int(fields[11]) + int(fields[12])) / CLOCK_TICKS,
+                       "minor_faults": int(fields[7]), "major_faults": int(fields[9])}
+            with open(f"{task}/status") as f:
+                for line in f:
+                    key, _, value = line.partition(":")
+                    if key in ("voluntary_ctxt_switches", "nonvoluntary_ctxt_switches"):
+                        figures[key.replace("_ctxt", "")] = int(value)
+        except (OSError, IndexError, ValueError):
+            continue  # the thread ended meanwhile
+        try:
+            with open(f"{task}/schedstat") as f:
+                run_ns, wait_ns, slices = (int(v) for v in f.read().split()[:3])
+            figures.update(run_ns=run_ns, wait_ns=wait_ns, slices=slices)
+        except (OSError, ValueError):
+            pass  # a kernel without CONFIG_SCHED_INFO
+        threads[tid] = figures
+    return threads
+
+
+def thread_deltas(before, after):
+    """Per process, every thread's figures at `after` less those at `before` (a thread that
+    started meanwhile counts from zero), largest CPU first."""
+    out = {}
+    for name, threads in after.items():
+        rows = []
+        for tid, now in threads.items():
+            then = before.get(name, {}).get(tid, {})
+            row = {"tid": int(tid), "name": now["name"]}
+            row.update({k: v - then.get(k, 0) for k, v in now.items() if k != "name"})
+            rows.append(row)
+        out[name] = sorted(rows, key=lambda r: -r["cpu_s"])
+    return out
 
 
 class Process:
@@ -112,6 +163,12 @@ def record_cpu(folder, started):
         json.dump({p.name: cpu_seconds(p.popen.pid) for p in started}, f)
 
 
+def record_threads(folder, started, before):
+    after = {p.name: thread_figures(p.popen.pid) for p in started}
+    with open(os.path.join(folder, "threads.json"), "w") as f:
+        json.dump(thread_deltas(before, after), f, indent=1)
+
+
 def stop(name, started):
     ok = True
     for proc in reversed(started):
@@ -130,6 +187,7 @@ def run_config(name, config, args, folder):
         if not start(name, config, args, folder, started):
             return False
         progress(f"{name}: {', '.join(p.name for p in started)} up; simulator runs {args.duration} s")
+        threads_before = {p.name: thread_figures(p.popen.pid) for p in started}
         sim_argv = [os.path.join(args.bin, "wheelchair_sim"), "--if", args.interface, "--duration-s", str(args.duration),
                     "--phase-ms", "0",
                     "--trace", os.path.join(folder, "sim_trace.csv"), "--summary", os.path.join(folder, "sim.json")]
@@ -146,6 +204,7 @@ def run_config(name, config, args, folder):
         if not ok:
             progress(f"{name}: simulator failed ({status}):\n{sim.tail()}")
         record_cpu(folder, started)
+        record_threads(folder, started, threads_before)
     finally:
         ok = stop(name, started) and ok
     progress(f"{name}: {'done' if ok else 'FAILED'}")
@@ -162,9 +221,11 @@ def run_together(names, configurations, args, out_dir, repetition):
             if start(n, configurations[n], args, folder_of(out_dir, n, repetition), started[n]):
                 up.append(n)
         progress(f"{', '.join(up)} up together; running {args.duration} s (no simulator)")
+        threads_before = {n: {p.name: thread_figures(p.popen.pid) for p in started[n]} for n in up}
         time.sleep(args.duration)  # the run's length: the programs measure meanwhile
         for n in up:
             record_cpu(folder_of(out_dir, n, repetition), started[n])
+            record_threads(folder_of(out_dir, n, repetition), started[n], threads_before[n])
     finally:
         stopped = {n: stop(n, started[n]) for n in names}
     failed = [n for n in names if n not in up or not stopped[n]]

@@ -122,6 +122,17 @@ def run(bin_dir, where):
                         if c["joystick_to_control_ns"]):
                     problems.append(f"{name}: {c['repetitions']} repetitions in the report, expected {repetitions} "
                                     f"each with its mean ({c['joystick_to_control_mean_ns_by_repetition']})")
+                else:
+                    # Every program's threads over the scenario: each periodic one woke.
+                    expected_processes = {p["name"] for p in configurations()[name].get("processes", [])}
+                    if configurations()[name].get("profile"):
+                        expected_processes.add("polyportd")
+                    per_period = c.get("per_period") or {}
+                    missing = sorted(expected_processes - set(per_period))
+                    asleep = sorted(p for p, f in per_period.items() if f["wakes"] < 0.5)
+                    if missing or asleep:
+                        problems.append(f"{name}: thread figures missing for {missing}, "
+                                        f"fewer than one wake in two periods for {asleep}")
             # A configuration compared with a native one: one difference per repetition.
             for name, config in configurations(where).items():
                 if not config.get("compare_with"):
