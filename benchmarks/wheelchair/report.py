@@ -141,6 +141,7 @@ def figures(folder, config, run, name):
             for c in stats.get("connections", [])}
     cpu = load_json(os.path.join(folder, "cpu.json")) or {}
     cpu["sim"] = sim.get("cpu_s")
+    threads = load_json(os.path.join(folder, "threads.json"))
     # Periods of the run: the simulator's, or (host runs, no simulator) the duration's.
     periods = sim.get("periods") or int(round((run.get("duration_s") or 0) / 0.01))
     return {
@@ -155,8 +156,8 @@ def figures(folder, config, run, name):
         "cpu_s": cpu,
         "cpu_us_per_period": {k: (v * 1e6 / periods if v is not None and periods else None) for k, v in cpu.items()},
         "polyport_hops": hops,
-        "threads": load_json(os.path.join(folder, "threads.json")),
-        "per_period": per_period(load_json(os.path.join(folder, "threads.json")), periods),
+        "threads": threads,
+        "per_period": per_period(threads, periods),
         "simulator": sim,
         "trace_periods": len(trace),
     }, trace

@@ -124,8 +124,9 @@ def run(bin_dir, where):
                                     f"each with its mean ({c['joystick_to_control_mean_ns_by_repetition']})")
                 else:
                     # Every program's threads over the scenario: each periodic one woke.
-                    expected_processes = {p["name"] for p in configurations()[name].get("processes", [])}
-                    if configurations()[name].get("profile"):
+                    config = configurations()[name]
+                    expected_processes = {p["name"] for p in config.get("processes", [])}
+                    if config.get("profile"):
                         expected_processes.add("polyportd")
                     per_period = c.get("per_period") or {}
                     missing = sorted(expected_processes - set(per_period))
