@@ -427,7 +427,9 @@ nlohmann::json collect_stats(const Engine& engine, const Options& options, std::
   if (clock.tsc)
     stats["clock"].update({{"tsc_ghz", clock.tsc_ghz}, {"calibrations", clock.calibrations}, {"steps", clock.steps},
                            {"skipped", clock.skipped}, {"last_error_ns", clock.last_error_ns},
-                           {"max_abs_error_ns", clock.max_abs_error_ns}});
+                           {"max_abs_error_ns", clock.max_abs_error_ns}, {"wall_checks", clock.wall_checks},
+                           {"wall_error_mean_ns", clock.wall_error_mean_ns}, {"wall_error_min_ns", clock.wall_error_min_ns},
+                           {"wall_error_max_ns", clock.wall_error_max_ns}});
   if (clock.given_up) stats["clock"]["tsc_given_up"] = clock.why_given_up;
   return stats;
 }

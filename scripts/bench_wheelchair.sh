@@ -41,7 +41,7 @@ for arg in "$@"; do
 done
 [[ "$repeat" =~ ^[1-9][0-9]*$ ]] || { echo "bench_wheelchair.sh: --repeat $repeat: expected 1 or more" >&2; exit 2; }
 rc=0
-scripts/vcan-run --timeout $((900 * repeat)) --rw "$run_dir" -- \
+scripts/vcan-run --interfaces 2 --timeout $((900 * repeat)) --rw "$run_dir" -- \
   /usr/bin/python3 benchmarks/wheelchair/run_configs.py --out "$run_dir" --bin "$(cd "$build/bin" && pwd)" "$@" || rc=$?
 # The configurations meant for the host (no CAN: their Joystick -> Control hop where clocks
 # are cheap), into the same run folder.

@@ -15,8 +15,14 @@ no configuration always runs first; repetition K of a configuration writes
   OUT/<config>/<K>/*.log                       their stderr
 
 Every periodic loop runs on a grid of CLOCK_MONOTONIC at the phase the configuration gives
-it (the programs' --phase-ms, the profiles' <phase>; the simulator at phase 0), so that the
-loops' order in the period is the same in every run and configuration.
+it (the programs' --phase-ms, the profiles' <phase>; the simulator at its sim_phase_ms, 0 by
+default), so that the loops' order in the period is the same in every run and configuration.
+
+A pair (a configuration with `together`) runs its members at the same time, each with a
+simulator of its own on its own interface, into OUT/<pair>/<member>/<K>: a difference between
+them is measured under the same conditions, which change from second to second on these
+machines (in the guest, one configuration's 3 s medians moved between 74 and 172 µs in one
+run). The guest needs vcan1 for them (scripts/vcan-run --interfaces 2).
 
 report.py turns a run folder into the JSON, the table and the plots. Exit status 0 when every
 configuration produced a full trace; 1 otherwise (the failing step is printed)."""
@@ -179,35 +185,48 @@ def stop(name, started):
     return ok
 
 
-def run_config(name, config, args, folder):
-    """A guest configuration: its programs against the bus simulator for the scenario."""
-    started = []
+def run_config(members, args):
+    """A guest configuration, or a pair's members at the same time: for each (name, config,
+    folder), its programs against a bus simulator of its own (on its `interface`, at its
+    `sim_phase_ms`) for the scenario."""
+    started = {name: [] for name, _, _ in members}
+    sims = []
     ok = False
     try:
-        if not start(name, config, args, folder, started):
-            return False
-        progress(f"{name}: {', '.join(p.name for p in started)} up; simulator runs {args.duration} s")
-        threads_before = {p.name: thread_figures(p.popen.pid) for p in started}
-        sim_argv = [os.path.join(args.bin, "wheelchair_sim"), "--if", args.interface, "--duration-s", str(args.duration),
-                    "--phase-ms", "0",
-                    "--trace", os.path.join(folder, "sim_trace.csv"), "--summary", os.path.join(folder, "sim.json")]
-        if args.scenario:
-            sim_argv += ["--scenario", args.scenario]
-        sim = Process("sim", sim_argv, os.path.join(folder, "sim.log"), os.environ)
-        try:
-            status = sim.popen.wait(timeout=args.duration + args.start_timeout + 30)
-        except subprocess.TimeoutExpired:
-            sim.popen.kill()
-            status = "timed out"
-        sim.log.close()
-        ok = status == 0
-        if not ok:
-            progress(f"{name}: simulator failed ({status}):\n{sim.tail()}")
-        record_cpu(folder, started)
-        record_threads(folder, started, threads_before)
+        for name, config, folder in members:
+            if not start(name, config, args, folder, started[name]):
+                return False
+        for name, _, _ in members:
+            progress(f"{name}: {', '.join(p.name for p in started[name])} up; simulator runs {args.duration} s")
+        threads_before = {name: {p.name: thread_figures(p.popen.pid) for p in started[name]} for name, _, _ in members}
+        for name, config, folder in members:
+            sim_argv = [os.path.join(args.bin, "wheelchair_sim"), "--if", config.get("interface", args.interface),
+                        "--duration-s", str(args.duration), "--phase-ms", str(config.get("sim_phase_ms", 0)),
+                        "--trace", os.path.join(folder, "sim_trace.csv"), "--summary", os.path.join(folder, "sim.json")]
+            if args.scenario:
+                sim_argv += ["--scenario", args.scenario]
+            sims.append((name, Process("sim", sim_argv, os.path.join(folder, "sim.log"), os.environ)))
+        ok = True
+        for name, sim in sims:
+            try:
+                status = sim.popen.wait(timeout=args.duration + args.start_timeout + 30)
+            except subprocess.TimeoutExpired:
+                sim.popen.kill()
+                status = "timed out"
+            sim.log.close()
+            if status != 0:
+                progress(f"{name}: simulator failed ({status}):\n{sim.tail()}")
+                ok = False
+        for name, _, folder in members:
+            record_cpu(folder, started[name])
+            record_threads(folder, started[name], threads_before[name])
     finally:
-        ok = stop(name, started) and ok
-    progress(f"{name}: {'done' if ok else 'FAILED'}")
+        for _, sim in sims:
+            if sim.popen.poll() is None:
+                sim.stop()
+        for name, _, _ in members:
+            ok = stop(name, started[name]) and ok
+    progress(f"{' + '.join(name for name, _, _ in members)}: {'done' if ok else 'FAILED'}")
     return ok
 
 
@@ -238,6 +257,27 @@ def folder_of(out_dir, name, repetition):
     return os.path.join(out_dir, name, str(repetition))
 
 
+def reported(configurations, names):
+    """What running `names` reports, by name: each configuration that runs on its own, and
+    each pair's members as `<pair>/<member>`, their compare_with the member the pair's
+    `compare` names (configurations.json, "Paired runs")."""
+    out = {}
+    for name in names:
+        config = configurations[name]
+        if "together" not in config:
+            out[name] = config
+            continue
+        for member in config["together"]:
+            c = {k: v for k, v in configurations[member].items() if k not in ("compare_with", "beside_only")}
+            c["paired_in"] = name
+            if member in config.get("compare", {}):
+                c["compare_with"] = f"{name}/{config['compare'][member]}"
+                if config.get("check_of_pairing"):
+                    c["check_of_pairing"] = True
+            out[f"{name}/{member}"] = c
+    return out
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", required=True, help="the run folder to fill")
@@ -256,7 +296,8 @@ def main():
 
     with open(args.configurations) as f:
         configurations = {k: v for k, v in json.load(f).items() if not k.startswith("_")}
-    names = [n for n in args.only.split(",") if n] or list(configurations)
+    # By default every configuration but those that run only beside another (in a pair).
+    names = [n for n in args.only.split(",") if n] or [n for n, c in configurations.items() if not c.get("beside_only")]
     names = [n for n in names if n not in configurations or configurations[n].get("where", "guest") == args.where]
     if args.repeat < 1:
         parser.error(f"--repeat {args.repeat}: expected 1 or more")
@@ -276,8 +317,9 @@ def main():
             run = json.load(f)
     except (OSError, ValueError):
         run = {"configurations": {}, "environments": {}}
-    run["configurations"].update({n: configurations[n] for n in names})
-    run["environments"].update({n: os.environ.get("VCAN_RUN_IN", "host") for n in names})
+    every = reported(configurations, names)
+    run["configurations"].update(every)
+    run["environments"].update({n: os.environ.get("VCAN_RUN_IN", "host") for n in every})
     run.update({"duration_s": args.duration, "scenario": args.scenario, "repetitions": args.repeat})
     with open(run_file, "w") as f:
         json.dump(run, f, indent=1)
@@ -293,7 +335,8 @@ def main():
         # neighbours swaps which of them runs first.
         for i, n in enumerate(names if k % 2 else names[::-1], 1):
             progress(f"repetition {k}/{args.repeat}, configuration {i}/{len(names)}: {n}")
-            if not run_config(n, configurations[n], args, folder_of(args.out, n, k)):
+            members = [(m, c, folder_of(args.out, m, k)) for m, c in reported(configurations, [n]).items()]
+            if not run_config(members, args):
                 failed.append(f"{n} ({k})")
     if failed:
         progress(f"failed: {', '.join(failed)}")

@@ -154,6 +154,12 @@ class Calibrator {
     out.skipped = skipped_.load(std::memory_order_relaxed);
     out.last_error_ns = last_error_.load(std::memory_order_relaxed);
     out.max_abs_error_ns = max_abs_error_.load(std::memory_order_relaxed);
+    out.wall_checks = wall_checks_.load(std::memory_order_relaxed);
+    if (out.wall_checks > 0)
+      out.wall_error_mean_ns = static_cast<double>(wall_error_sum_.load(std::memory_order_relaxed)) /
+                               static_cast<double>(out.wall_checks);
+    out.wall_error_min_ns = wall_error_min_.load(std::memory_order_relaxed);
+    out.wall_error_max_ns = wall_error_max_.load(std::memory_order_relaxed);
     std::lock_guard lock(mutex_);
     out.given_up = !why_given_up_.empty();
     out.why_given_up = why_given_up_;
@@ -166,7 +172,10 @@ class Calibrator {
     const auto after = [](std::chrono::milliseconds interval) { return std::min(interval * 2, kInterval); };
     std::unique_lock lock(mutex_);
     for (std::chrono::milliseconds interval = kFirstBaseline;; interval = after(interval)) {
-      if (wake_.wait_for(lock, interval, [this] { return stopping_; })) return;
+      const auto stop = [this] { return stopping_; };
+      if (wake_.wait_for(lock, interval / 2, stop)) return;
+      check_wall();
+      if (wake_.wait_for(lock, interval - interval / 2, stop)) return;
       const std::chrono::milliseconds next = after(interval);
       const detail::TscPoint now = sample();
       Result<detail::TscDiscipline::Update> update =
@@ -189,6 +198,32 @@ class Calibrator {
       wake_.wait_for(lock, std::chrono::nanoseconds(lead), [this] { return stopping_; });
     detail::g_tsc_clock.active.store(false, std::memory_order_release);
     why_given_up_ = why;
+  }
+
+  // wall_now() against clock_gettime(CLOCK_REALTIME) at the middle of the tightest of five
+  // TSC brackets around it (ClockStats::wall_checks), after the first second.
+  void check_wall() noexcept {
+    std::int64_t tightest = std::numeric_limits<std::int64_t>::max();
+    std::int64_t error = 0;
+    std::int64_t middle = 0;
+    for (int i = 0; i < 5; ++i) {
+      const std::int64_t before = detail::read_tsc();
+      const std::int64_t wall = detail::system_ns(CLOCK_REALTIME);
+      const std::int64_t after = detail::read_tsc();
+      if (after - before < tightest) {
+        tightest = after - before;
+        middle = before + (after - before) / 2;
+        error = published_.at(middle) + published_.wall_minus_mono_ns - wall;
+      }
+    }
+    if (published_.at(middle) - started_ < 1'000'000'000) return;
+    const std::uint64_t checks = wall_checks_.load(std::memory_order_relaxed);
+    if (checks == 0 || error < wall_error_min_.load(std::memory_order_relaxed))
+      wall_error_min_.store(error, std::memory_order_relaxed);
+    if (checks == 0 || error > wall_error_max_.load(std::memory_order_relaxed))
+      wall_error_max_.store(error, std::memory_order_relaxed);
+    wall_error_sum_.fetch_add(error, std::memory_order_relaxed);
+    wall_checks_.store(checks + 1, std::memory_order_release);
   }
 
   void record(const detail::TscDiscipline::Update& update, std::int64_t now_ns) noexcept {
@@ -219,6 +254,10 @@ class Calibrator {
   std::atomic<std::uint64_t> skipped_{0};
   std::atomic<std::int64_t> last_error_{0};
   std::atomic<std::int64_t> max_abs_error_{0};
+  std::atomic<std::uint64_t> wall_checks_{0};
+  std::atomic<std::int64_t> wall_error_sum_{0};
+  std::atomic<std::int64_t> wall_error_min_{0};
+  std::atomic<std::int64_t> wall_error_max_{0};
 };
 
 // Whether the kernel keeps its own time with something other than the TSC: it found the TSC

@@ -4,10 +4,12 @@
   wheelchair_suite_test.py check BIN      every configuration's profile passes `polyportd
                                           check` and its programs exist (host, no CAN)
   wheelchair_suite_test.py run BIN        a short run of every guest configuration against
-                                          the bus simulator produces a full trace in which
-                                          the controller commanded the motors and the chair
-                                          drove; the report turns it into its JSON and table
-                                          (in the vcan guest: needs vcan0)
+                                          the bus simulator (and of each pair's members at
+                                          the same time, each against its own) produces a
+                                          full trace in which the controller commanded the
+                                          motors and the chair drove; the report turns it
+                                          into its JSON and table (in the vcan guest: needs
+                                          vcan0 and vcan1)
   wheelchair_suite_test.py host BIN       two short interleaved repetitions of every host
                                           configuration (no CAN) measure Joystick -> Control,
                                           and the report has both and compares them pairwise
@@ -22,21 +24,40 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SUITE = os.path.join(ROOT, "benchmarks", "wheelchair")
+sys.path.insert(0, SUITE)
+import run_configs  # noqa: E402  (reported: what a run reports, pairs' members included)
 DURATION_S = 1.5
 PERIOD_S = 0.01
 # The stick goes forward at 0.2 s, turns at 0.8 s: both inside a short run.
 SCENARIO = "0:0:0; 0.2:0:0.6; 0.8:20:0.6"
 
 
-def configurations(where=None):
+def configurations():
     with open(os.path.join(SUITE, "configurations.json")) as f:
-        every = {k: v for k, v in json.load(f).items() if not k.startswith("_")}
-    return {k: v for k, v in every.items() if where is None or v.get("where", "guest") == where}
+        return {k: v for k, v in json.load(f).items() if not k.startswith("_")}
+
+
+def reported(where):
+    """What a run of every configuration meant for `where` reports, by name (a pair's
+    members as <pair>/<member>)."""
+    every = configurations()
+    return run_configs.reported(every, [n for n, c in every.items()
+                                        if not c.get("beside_only") and c.get("where", "guest") == where])
 
 
 def check(bin_dir):
     problems = []
     for name, config in configurations().items():
+        if "together" in config:
+            members = config["together"]
+            unknown = [m for m in members if m not in configurations() or "together" in configurations()[m]]
+            compared = [m for pair in config.get("compare", {}).items() for m in pair if m not in members]
+            if unknown or compared or len(members) < 2:
+                problems.append(f"{name}: a pair of {members}: not configurations {unknown}, compared but not members {compared}")
+            interfaces = [configurations().get(m, {}).get("interface", "vcan0") for m in members]
+            if len(set(interfaces)) != len(interfaces):
+                problems.append(f"{name}: its members share a bus ({interfaces})")
+            continue
         if config.get("profile"):
             r = subprocess.run([os.path.join(bin_dir, "polyportd"), "check", os.path.join(ROOT, config["profile"])],
                                capture_output=True, text=True)
@@ -64,7 +85,7 @@ def run(bin_dir, where):
         if r.returncode != 0:
             problems.append(f"run_configs.py exited {r.returncode}")
         expected = round(DURATION_S / PERIOD_S)
-        for name in configurations(where) if where == "guest" else []:
+        for name in reported(where) if where == "guest" else []:
             try:
                 with open(os.path.join(out, name, "1", "sim_trace.csv")) as f:
                     rows = list(csv.DictReader(f))
@@ -83,25 +104,26 @@ def run(bin_dir, where):
                 problems.append(f"{name}: the chair did not drive (left + right {speed:.3f} rad/s at the end)")
             if turn <= 0.1:
                 problems.append(f"{name}: the chair did not turn right (left - right {turn:.3f} rad/s at the end)")
-        # A compared pair reads one clock: the native program's arrival stamps and polyportd's
-        # stamps (the TSC in the guest, where clock_gettime is a system call of ~15 us that
-        # would otherwise lie inside the native side's figure only).
-        for name, config in configurations(where).items():
+        # A compared pair reads one clock: each side's arrival stamps (a native program's or
+        # polyportd's) with the TSC in the guest, where clock_gettime is a system call of
+        # ~15 us that would otherwise lie inside one side's figure only.
+        def arrival_clock(name):
+            process = reported(where)[name]["joystick_to_control"].get("process")
+            with open(os.path.join(out, name, "1", (process or "polyportd") + ".json")) as f:
+                summary = json.load(f)
+            return summary.get("arrival_clock") if process else summary["clock"]["source"]
+
+        for name, config in reported(where).items():
             native = config.get("compare_with")
             if not native:
                 continue
-            process = configurations()[native]["joystick_to_control"].get("process")
             try:
-                with open(os.path.join(out, native, "1", process + ".json")) as f:
-                    native_clock = json.load(f).get("arrival_clock")
-                with open(os.path.join(out, name, "1", "polyportd.json")) as f:
-                    bridge_clock = json.load(f)["clock"]["source"]
+                clocks = arrival_clock(name), arrival_clock(native)
             except (OSError, ValueError, KeyError, TypeError) as e:
                 problems.append(f"{name}: the clocks of the comparison with {native} are not in its files ({e!r})")
                 continue
-            if native_clock != bridge_clock:
-                problems.append(f"{name}: polyportd stamps with the {bridge_clock} clock, {native}'s {process} "
-                                f"program with {native_clock}")
+            if clocks[0] != clocks[1]:
+                problems.append(f"{name} stamps its arrivals with the {clocks[0]} clock, {native} with {clocks[1]}")
         results = os.path.join(out, "results")
         r = subprocess.run(["/usr/bin/python3", os.path.join(SUITE, "report.py"), out, "--results", results, "--no-plots"],
                            capture_output=True, text=True)
@@ -111,7 +133,7 @@ def run(bin_dir, where):
             reports = [f for f in os.listdir(results) if f.endswith(".json")]
             with open(os.path.join(results, reports[0])) as f:
                 report = json.load(f)
-            for name in configurations(where):
+            for name in reported(where):
                 c = report["configurations"].get(name)
                 if c is None or (where == "guest" and c["trace_periods"] != expected):
                     problems.append(f"{name}: missing from the report or short")
@@ -124,7 +146,7 @@ def run(bin_dir, where):
                                     f"each with its mean ({c['joystick_to_control_mean_ns_by_repetition']})")
                 else:
                     # Every program's threads over the scenario: each periodic one woke.
-                    config = configurations()[name]
+                    config = reported(where)[name]
                     expected_processes = {p["name"] for p in config.get("processes", [])}
                     if config.get("profile"):
                         expected_processes.add("polyportd")
@@ -135,7 +157,7 @@ def run(bin_dir, where):
                         problems.append(f"{name}: thread figures missing for {missing}, "
                                         f"fewer than one wake in two periods for {asleep}")
             # A configuration compared with a native one: one difference per repetition.
-            for name, config in configurations(where).items():
+            for name, config in reported(where).items():
                 if not config.get("compare_with"):
                     continue
                 bar = next((b for b in report["bars"] if b["bar"].startswith(f"{name} ") and "within" in b["bar"]), None)
@@ -143,7 +165,7 @@ def run(bin_dir, where):
                     problems.append(f"{name}: no end-to-end bar over {repetitions} repetitions in the report ({bar})")
     for p in problems:
         print(p)
-    print(f"ran {len(configurations(where))} {where} configurations: {len(problems)} problems")
+    print(f"ran {len(reported(where))} {where} configurations: {len(problems)} problems")
     return 1 if problems else 0
 
 

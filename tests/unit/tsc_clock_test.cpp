@@ -78,7 +78,8 @@ TEST_F(TscClock, StaysOnClockMonotonicAndRealtimeThroughItsCalibrations) {
   const auto enough = [&] {
     const auto elapsed = std::chrono::steady_clock::now() - start;
     if (elapsed > std::chrono::seconds(10)) return true;
-    return elapsed >= std::chrono::milliseconds(1600) && clock_stats().calibrations >= 5;
+    const ClockStats stats = clock_stats();
+    return elapsed >= std::chrono::milliseconds(1600) && stats.calibrations >= 5 && stats.wall_checks >= 2;
   };
   int checks = 0;
   while (checks < 100 || !enough()) {
@@ -106,6 +107,13 @@ TEST_F(TscClock, StaysOnClockMonotonicAndRealtimeThroughItsCalibrations) {
   EXPECT_GE(stats.calibrations, 5U);  // 50, 100, 200 ms apart, then every 250 ms
   EXPECT_EQ(stats.steps, 0U);
   EXPECT_LE(std::llabs(stats.max_abs_error_ns), kToleranceNs);
+  // Its own check of wall_now() against clock_gettime(CLOCK_REALTIME), halfway between
+  // calibrations from the second second on, agrees.
+  EXPECT_GE(stats.wall_checks, 2U);
+  EXPECT_LE(std::llabs(stats.wall_error_min_ns), kToleranceNs);
+  EXPECT_LE(std::llabs(stats.wall_error_max_ns), kToleranceNs);
+  EXPECT_LE(static_cast<double>(stats.wall_error_min_ns), stats.wall_error_mean_ns);
+  EXPECT_GE(static_cast<double>(stats.wall_error_max_ns), stats.wall_error_mean_ns);
 }
 
 TEST_F(TscClock, NeverGoesBackOnAnyThreadWhileItIsCalibrated) {

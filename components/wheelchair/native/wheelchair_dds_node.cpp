@@ -28,7 +28,9 @@
 // "wheelchair_dds_node ROLE: running" once the entities exist. At exit (SIGINT/SIGTERM),
 // --summary FILE gets one JSON object: role, period_ms, periods, overruns, lateness_ns (the
 // wake lateness of every period), cpu_s; control adds joystick_to_control_ns and
-// arrival_clock ("tsc" or "system": the clock of its arrival stamps); hw adds
+// arrival_clock ("tsc" or "system": the clock of its arrival stamps) and with the TSC clock
+// `clock` (wall_checks, wall_error_mean_ns / min / max: its wall time minus the kernel's over
+// the run, polyport::ClockStats, as polyportd's statistics give its own); hw adds
 // frames_rx (frames read from the socket), bad_frames (of those, the ones of a wrong length,
 // dropped), frames_tx, rx_errors and tx_errors (failed socket calls).
 // Exit status: 0 stopped by a signal; 1 setup failed or the summary could not be written
@@ -235,6 +237,20 @@ void on_reference(dds_entity_t reader, void* arg) {
   }
 }
 
+// The arrival stamps' clock, and for the TSC clock how far its wall time was from the
+// kernel's over the run (ClockStats::wall_checks), as polyportd's statistics give its own.
+std::string arrival_clock_json(bool tsc) {
+  std::string text = R"(,"arrival_clock":")" + std::string(tsc ? "tsc" : "system") + "\"";
+  const polyport::ClockStats clock = polyport::clock_stats();
+  if (!tsc || clock.wall_checks == 0) return text;
+  char figures[192];
+  std::snprintf(figures, sizeof figures,
+                R"(,"clock":{"wall_checks":%llu,"wall_error_mean_ns":%.1f,"wall_error_min_ns":%lld,"wall_error_max_ns":%lld})",
+                static_cast<unsigned long long>(clock.wall_checks), clock.wall_error_mean_ns,
+                static_cast<long long>(clock.wall_error_min_ns), static_cast<long long>(clock.wall_error_max_ns));
+  return text + figures;
+}
+
 int run_control(const Options& options) {
   // The arrival stamps' clock, chosen as polyportd chooses its own (--clock auto).
   const polyport::Result<polyport::ClockInfo> clock = polyport::use_clock(polyport::ClockChoice::automatic);
@@ -275,7 +291,7 @@ int run_control(const Options& options) {
   dds.close();
   return write_summary(options, stats,
                        R"(,"joystick_to_control_ns":)" + input.latency_ns.summary_json() +
-                           R"(,"arrival_clock":")" + (tsc ? "tsc" : "system") + "\"")
+                           arrival_clock_json(tsc))
              ? kExitOk
              : kExitFailed;
 }
