@@ -21,7 +21,7 @@ default), so that the loops' order in the period is the same in every run and co
 A pair (a configuration with `together`) runs its members at the same time, each with a
 simulator of its own on its own interface, into OUT/<pair>/<member>/<K>: a difference between
 them is measured under the same conditions, which change from second to second on these
-machines (in the guest, one configuration's 3 s medians moved between 74 and 172 µs in one
+machines (in the guest, one configuration's 3 s medians moved between 80 and 172 µs in one
 run). The guest needs vcan1 for them (scripts/vcan-run --interfaces 2).
 
 report.py turns a run folder into the JSON, the table and the plots. Exit status 0 when every
