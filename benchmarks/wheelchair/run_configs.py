@@ -274,6 +274,10 @@ def reported(configurations, names):
                 c["compare_with"] = f"{name}/{config['compare'][member]}"
                 if config.get("check_of_pairing"):
                     c["check_of_pairing"] = True
+                if config.get("position_check"):
+                    check = configurations[config["position_check"]]
+                    compared = next(iter(check.get("compare", {})), None)
+                    c["position_check"] = f"{config['position_check']}/{compared}"
             out[f"{name}/{member}"] = c
     return out
 

@@ -163,6 +163,11 @@ def run(bin_dir, where):
                 bar = next((b for b in report["bars"] if b["bar"].startswith(f"{name} ") and "within" in b["bar"]), None)
                 if bar is None or len(bar["by_repetition_ns"]) != repetitions:
                     problems.append(f"{name}: no end-to-end bar over {repetitions} repetitions in the report ({bar})")
+                if config.get("position_check"):
+                    bar = next((b for b in report["bars"] if b["bar"].startswith(f"{name} ")
+                                and "same place in the period" in b["bar"]), None)
+                    if bar is None or bar["measured_ns"] is None:
+                        problems.append(f"{name}: no bar less {config['position_check']}'s difference in the report ({bar})")
     for p in problems:
         print(p)
     print(f"ran {len(reported(where))} {where} configurations: {len(problems)} problems")
