@@ -273,9 +273,11 @@ def build(run_dir):
     bars = []
     conf = result["configurations"]
     differences = {}  # Joystick -> Control, a compared configuration's median difference
+    within = f"Joystick -> Control within {E2E_MEAN_VS_NATIVE_NS / 1000:g} us of"
+    ran_in = lambda c: f" ({c['ran_in']})" if c.get("ran_in") else ""
     for name, c in conf.items():
         native = c.get("compare_with")
-        where = f" ({c['ran_in']})" if c.get("ran_in") else ""
+        where = ran_in(c)
         reps = by_rep[name]
         shares = [mean_of(r["polyport_share_ns"]) for r in reps.values() if mean_of(r["polyport_share_ns"]) is not None]
         if native and shares:
@@ -284,7 +286,7 @@ def build(run_dir):
                                 f"(the largest of {len(shares)} repetitions)", "measured_ns": v, "holds": v <= SHARE_MEAN_NS,
                          "by_repetition_ns": shares})
         if native and native not in by_rep:
-            bars.append({"bar": f"{name}{where}: Joystick -> Control within {E2E_MEAN_VS_NATIVE_NS / 1000:g} us of "
+            bars.append({"bar": f"{name}{where}: {within} "
                                 f"{native}: {native} did not run", "measured_ns": None, "holds": False})
         elif native:
             # Each repetition against the native configuration's of the same repetition (run
@@ -293,7 +295,7 @@ def build(run_dir):
                      for k, r in reps.items() if k in by_rep[native] and mean_of(r["joystick_to_control_ns"]) is not None
                      and mean_of(by_rep[native][k]["joystick_to_control_ns"]) is not None}
             if not diffs:
-                bars.append({"bar": f"{name}{where}: Joystick -> Control within {E2E_MEAN_VS_NATIVE_NS / 1000:g} us of "
+                bars.append({"bar": f"{name}{where}: {within} "
                                     f"{native}: no round measured both", "measured_ns": None, "holds": False})
             else:
                 d = median(diffs.values())
@@ -305,7 +307,7 @@ def build(run_dir):
                               if str(k) in diffs and wall_error(r) is not None and wall_error(by_rep[native][k]) is not None}
                 what = ("; the pairing's own check: two native configurations at the same time"
                         if configurations.get(name, {}).get("check_of_pairing") else "")
-                bars.append({"bar": f"{name}{where}: Joystick -> Control within {E2E_MEAN_VS_NATIVE_NS / 1000:g} us of "
+                bars.append({"bar": f"{name}{where}: {within} "
                                     f"{native} (mean; the median over {len(diffs)} repetitions of the difference{what})",
                              "measured_ns": d, "holds": abs(d) <= E2E_MEAN_VS_NATIVE_NS, "by_repetition_ns": diffs,
                              "clock_part_by_repetition_ns": clock_part})
@@ -318,13 +320,13 @@ def build(run_dir):
         check = configurations.get(name, {}).get("position_check")
         if not check or name not in differences:
             continue
-        where = f" ({c['ran_in']})" if c.get("ran_in") else ""
+        where = ran_in(c)
         if check not in differences:
-            bars.append({"bar": f"{name}{where}: Joystick -> Control within {E2E_MEAN_VS_NATIVE_NS / 1000:g} us of native "
+            bars.append({"bar": f"{name}{where}: {within} native "
                                 f"at the same place in the period: {check} did not run", "measured_ns": None, "holds": False})
             continue
         d = differences[name] - differences[check]
-        bars.append({"bar": f"{name}{where}: Joystick -> Control within {E2E_MEAN_VS_NATIVE_NS / 1000:g} us of native at "
+        bars.append({"bar": f"{name}{where}: {within} native at "
                             f"the same place in the period ({name} - {c['compare_with']} less {check} - "
                             f"{conf[check]['compare_with']}, the medians over their repetitions)",
                      "measured_ns": d, "holds": abs(d) <= E2E_MEAN_VS_NATIVE_NS,

@@ -78,6 +78,7 @@ def check(bin_dir):
 def run(bin_dir, where):
     problems = []
     repetitions = 1 if where == "guest" else 2
+    every = reported(where)
     with tempfile.TemporaryDirectory() as out:
         r = subprocess.run(["/usr/bin/python3", os.path.join(SUITE, "run_configs.py"), "--out", out, "--bin", bin_dir,
                             "--duration", str(DURATION_S), "--scenario", SCENARIO, "--where", where,
@@ -85,7 +86,7 @@ def run(bin_dir, where):
         if r.returncode != 0:
             problems.append(f"run_configs.py exited {r.returncode}")
         expected = round(DURATION_S / PERIOD_S)
-        for name in reported(where) if where == "guest" else []:
+        for name in every if where == "guest" else []:
             try:
                 with open(os.path.join(out, name, "1", "sim_trace.csv")) as f:
                     rows = list(csv.DictReader(f))
@@ -108,12 +109,12 @@ def run(bin_dir, where):
         # polyportd's) with the TSC in the guest, where clock_gettime is a system call of
         # ~15 us that would otherwise lie inside one side's figure only.
         def arrival_clock(name):
-            process = reported(where)[name]["joystick_to_control"].get("process")
+            process = every[name]["joystick_to_control"].get("process")
             with open(os.path.join(out, name, "1", (process or "polyportd") + ".json")) as f:
                 summary = json.load(f)
             return summary.get("arrival_clock") if process else summary["clock"]["source"]
 
-        for name, config in reported(where).items():
+        for name, config in every.items():
             native = config.get("compare_with")
             if not native:
                 continue
@@ -133,7 +134,7 @@ def run(bin_dir, where):
             reports = [f for f in os.listdir(results) if f.endswith(".json")]
             with open(os.path.join(results, reports[0])) as f:
                 report = json.load(f)
-            for name in reported(where):
+            for name in every:
                 c = report["configurations"].get(name)
                 if c is None or (where == "guest" and c["trace_periods"] != expected):
                     problems.append(f"{name}: missing from the report or short")
@@ -146,7 +147,7 @@ def run(bin_dir, where):
                                     f"each with its mean ({c['joystick_to_control_mean_ns_by_repetition']})")
                 else:
                     # Every program's threads over the scenario: each periodic one woke.
-                    config = reported(where)[name]
+                    config = every[name]
                     expected_processes = {p["name"] for p in config.get("processes", [])}
                     if config.get("profile"):
                         expected_processes.add("polyportd")
@@ -157,7 +158,7 @@ def run(bin_dir, where):
                         problems.append(f"{name}: thread figures missing for {missing}, "
                                         f"fewer than one wake in two periods for {asleep}")
             # A configuration compared with a native one: one difference per repetition.
-            for name, config in reported(where).items():
+            for name, config in every.items():
                 if not config.get("compare_with"):
                     continue
                 bar = next((b for b in report["bars"] if b["bar"].startswith(f"{name} ") and "within" in b["bar"]), None)
@@ -170,7 +171,7 @@ def run(bin_dir, where):
                         problems.append(f"{name}: no bar less {config['position_check']}'s difference in the report ({bar})")
     for p in problems:
         print(p)
-    print(f"ran {len(reported(where))} {where} configurations: {len(problems)} problems")
+    print(f"ran {len(every)} {where} configurations: {len(problems)} problems")
     return 1 if problems else 0
 
 

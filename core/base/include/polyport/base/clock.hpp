@@ -160,9 +160,9 @@ struct ClockStats {
   std::string why_given_up;            // what it did
   // wall_now() − clock_gettime(CLOCK_REALTIME), checked halfway between calibrations from the
   // tightest of a few TSC brackets around the system call (after the first second): how far
-  // this process's wall time is from the kernel's, as a stamp compared with another
-  // process's sees it. Includes where in the system call the kernel reads its clock, the
-  // same in every process of one machine.
+  // this process's wall stamps are from the kernel's, which is what a comparison with
+  // another process's stamps inherits. Includes where in the system call the kernel reads its
+  // clock, the same in every process of one machine.
   std::uint64_t wall_checks = 0;
   double wall_error_mean_ns = 0;
   std::int64_t wall_error_min_ns = 0;
